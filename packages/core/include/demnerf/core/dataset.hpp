@@ -31,6 +31,9 @@ struct Dataset {
   std::vector<Frame> test;
   double aabb_scale = 1.0;  ///< instant-ngp's scene extent hint (1 when absent)
   Eigen::AlignedBox3d bounds;  ///< the scene box: from the file's "aabb" when present, else from the cameras
+  /// Frames listed in the transforms file whose image does not exist; they are skipped (the
+  /// instant-ngp fox lists 67 frames for its 50 photos), and callers should say so.
+  std::vector<std::string> missing_images;
 
   const std::vector<Frame>& split(const std::string& name) const;  ///< "train" or "test"
 };
