@@ -21,4 +21,18 @@ struct Command {
   Figures (*run)(const Arguments& arguments);
 };
 
+// One per <name>_command.cpp. Declared here so that every definition, which includes this
+// header, has external linkage (a namespace-scope const would otherwise be file-local).
+extern const Command kSynthCommand;
+extern const Command kTrainCommand;
+extern const Command kEvalCommand;
+extern const Command kRenderCommand;
+extern const Command kExtractCommand;
+extern const Command kSampleCommand;
+extern const Command kSimulateCommand;
+extern const Command kCompareCommand;
+extern const Command kPipelineCommand;
+extern const Command kBagCommand;
+extern const Command kInfoCommand;
+
 }  // namespace demnerf::cli

@@ -205,6 +205,13 @@ const std::vector<Frame>& Dataset::split(const std::string& name) const {
   throw Error("unknown split '" + name + "' (use train or test)");
 }
 
+std::vector<Frame> Dataset::frames(const std::string& split_name) const {
+  if (split_name != "all") return split(split_name);
+  std::vector<Frame> all = train;
+  all.insert(all.end(), test.begin(), test.end());
+  return all;
+}
+
 Dataset loadDataset(const std::string& directory, const DatasetOptions& options) {
   const fs::path root(directory);
   if (!fs::is_directory(root)) throw Error("dataset folder '" + directory + "' does not exist");

@@ -36,6 +36,8 @@ struct Dataset {
   std::vector<std::string> missing_images;
 
   const std::vector<Frame>& split(const std::string& name) const;  ///< "train" or "test"
+  /// Copies of the frames of "train", "test" or "all" (train then test).
+  std::vector<Frame> frames(const std::string& split_name) const;
 };
 
 /// Loads DIR/transforms.json, or DIR/transforms_train.json (+ transforms_test.json).

@@ -1,0 +1,47 @@
+#!/usr/bin/env bash
+# Runs every gtest (through ctest) and every rostest (test/*.test), then tallies the JUnit XML
+# they write. The last line is "N passed, N failed[, N skipped]"; the exit code is non-zero on
+# any failure.
+set -uo pipefail
+BUILD_DIR=${1:-build}
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+cd "$ROOT"
+RESULTS="$ROOT/$BUILD_DIR/test_results"
+rm -rf "$RESULTS" && mkdir -p "$RESULTS/rostest"
+# ROS's Python tools (rostest, hztest) need Debian's python3, which a pyenv or venv may shadow.
+export PATH="/usr/bin:$PATH"
+export ROS_HOME="$ROOT/$BUILD_DIR/ros_home"
+export ROS_TEST_RESULTS_DIR="$RESULTS/rostest"
+export ROSCONSOLE_FORMAT='[${severity}] [${node}]: ${message}'
+# The ROS environment scripts read unset variables, so they are sourced without -u.
+set +u
+# shellcheck disable=SC1091
+source "$BUILD_DIR/devel/setup.bash"
+set -u
+
+status=0
+skipped_suites=0
+echo "== gtests"
+(cd "$BUILD_DIR" && ctest --output-on-failure --timeout 600) || status=1
+
+echo "== rostests"
+for launch_file in test/*.test; do
+  needs_shared=$(grep -l 'shared/data' "$launch_file" || true)
+  if [ -n "$needs_shared" ] && [ ! -d "$ROOT/../shared/data" ]; then
+    echo "SKIPPED $launch_file: it replays ../shared/data, which is absent beside this clone"
+    skipped_suites=$((skipped_suites + 1))
+    continue
+  fi
+  echo "-- rostest $launch_file"
+  if ! rostest "$launch_file" > "$RESULTS/rostest/$(basename "$launch_file" .test).log" 2>&1; then
+    status=1
+    echo "FAILED $launch_file; its output:"
+    tail -40 "$RESULTS/rostest/$(basename "$launch_file" .test).log"
+  fi
+done
+
+summary=$(/usr/bin/python3 scripts/tally_results.py "$RESULTS" "$skipped_suites") || status=1
+echo "$summary" | head -n -1
+[ "$status" -eq 0 ] || echo "some test binary or rostest failed (see above)"
+echo "$summary" | tail -n 1
+exit $status

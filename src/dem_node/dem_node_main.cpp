@@ -1,0 +1,19 @@
+#include <ros/ros.h>
+
+#include "dem_node/dem_node.hpp"
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "dem_node");
+  ros::NodeHandle node;
+  ros::NodeHandle private_node("~");
+  try {
+    dem_nerf::DemNode dem_node(node, private_node, dem_nerf::DemNodeConfig::fromParameters(private_node));
+    ros::AsyncSpinner spinner(2);
+    spinner.start();
+    ros::waitForShutdown();
+  } catch (const std::exception& error) {
+    ROS_FATAL("dem_node: %s", error.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,36 @@
+#include "nerf_node/nerf_node_config.hpp"
+
+#include "ros_params/parameters.hpp"
+
+namespace dem_nerf {
+
+NerfNodeConfig NerfNodeConfig::fromParameters(const ros::NodeHandle& node) {
+  NerfNodeConfig config;
+  node.param("cameras", config.cameras, config.cameras);
+  if (config.cameras.empty()) throw demnerf::core::Error("parameter ~cameras must name at least one camera namespace");
+  node.param("world_frame", config.world_frame, config.world_frame);
+  readNumber(node, "tf_timeout", config.tf_timeout, 0.0);
+  readNumber(node, "min_translation", config.min_translation, 0.0);
+  readNumber(node, "min_rotation", config.min_rotation, 0.0);
+  readCount(node, "max_frames", config.max_frames, 1);
+  readCount(node, "min_frames", config.min_frames, 1);
+  readCount(node, "max_image_size", config.max_image_size, 16);
+  config.aabb = readList(node, "aabb", 6);
+  if (!config.aabb.empty() && (config.aabb[3] <= config.aabb[0] || config.aabb[4] <= config.aabb[1] ||
+                               config.aabb[5] <= config.aabb[2])) {
+    throw demnerf::core::Error("parameter ~aabb must be [xmin, ymin, zmin, xmax, ymax, zmax] with min < max");
+  }
+  config.background_color = readList(node, "background_color", 3);
+  readNumber(node, "key_tolerance", config.key_tolerance, 0.0);
+  readNumber(node, "train_seconds", config.train_seconds, 0.0);
+  readCount(node, "max_iterations", config.max_iterations, 0);
+  readNumber(node, "autosave_seconds", config.autosave_seconds, 0.0);
+  node.param("model_path", config.model_path, config.model_path);
+  readCount(node, "threads", config.threads, 0);
+  if (config.min_frames > config.max_frames) {
+    throw demnerf::core::Error("parameter ~min_frames must not exceed ~max_frames");
+  }
+  return config;
+}
+
+}  // namespace dem_nerf

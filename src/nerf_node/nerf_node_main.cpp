@@ -1,0 +1,19 @@
+#include <ros/ros.h>
+
+#include "nerf_node/nerf_node.hpp"
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "nerf_node");
+  ros::NodeHandle node;
+  ros::NodeHandle private_node("~");
+  try {
+    dem_nerf::NerfNode nerf_node(node, private_node, dem_nerf::NerfNodeConfig::fromParameters(private_node));
+    ros::AsyncSpinner spinner(2);  // services stay responsive while images arrive
+    spinner.start();
+    ros::waitForShutdown();
+  } catch (const std::exception& error) {
+    ROS_FATAL("nerf_node: %s", error.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,45 @@
+#pragma once
+// Small helpers for reading and checking ~ parameters, so each node's Config::fromParameters
+// stays a flat list of keys with their checks.
+
+#include <ros/ros.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "demnerf/core/error.hpp"
+
+namespace dem_nerf {
+
+/// Reads ~name into value when set; throws core::Error when it is not finite or below `minimum`.
+inline void readNumber(const ros::NodeHandle& node, const std::string& name, double& value, double minimum) {
+  node.param(name, value, value);
+  if (!std::isfinite(value) || value < minimum) {
+    throw demnerf::core::Error("parameter ~" + name + " must be a number >= " + std::to_string(minimum) +
+                               ", got " + std::to_string(value));
+  }
+}
+
+inline void readCount(const ros::NodeHandle& node, const std::string& name, int& value, int minimum) {
+  node.param(name, value, value);
+  if (value < minimum) {
+    throw demnerf::core::Error("parameter ~" + name + " must be an integer >= " + std::to_string(minimum) +
+                               ", got " + std::to_string(value));
+  }
+}
+
+/// Reads ~name as a list of exactly `size` finite numbers when set (empty when unset).
+inline std::vector<double> readList(const ros::NodeHandle& node, const std::string& name, std::size_t size) {
+  std::vector<double> values;
+  if (!node.getParam(name, values)) return {};
+  if (values.size() != size) {
+    throw demnerf::core::Error("parameter ~" + name + " must hold " + std::to_string(size) + " numbers");
+  }
+  for (double v : values) {
+    if (!std::isfinite(v)) throw demnerf::core::Error("parameter ~" + name + " holds NaN or Inf");
+  }
+  return values;
+}
+
+}  // namespace dem_nerf

@@ -1,0 +1,122 @@
+// rostest node: nerf_node and dem_node answer every service with a clear message, report bad
+// input on ~status, and stay alive to answer the next request.
+
+#include <dem_nerf/SaveModel.h>
+#include <dem_nerf/Solve.h>
+#include <dem_nerf/TrainingStatus.h>
+#include <geometry_msgs/WrenchStamped.h>
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+
+#include <cmath>
+#include <mutex>
+
+namespace {
+
+class StatusWatcher {
+ public:
+  StatusWatcher(ros::NodeHandle& node, const std::string& topic)
+      : subscriber_(node.subscribe(topic, 50, &StatusWatcher::onStatus, this)) {}
+
+  /// Waits until a status with stage "error" whose message contains `text` arrives.
+  bool waitForError(const std::string& text, double seconds) {
+    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(seconds);
+    while (ros::ok() && ros::WallTime::now() < deadline) {
+      ros::spinOnce();
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        for (const auto& status : received_) {
+          if (status.stage == "error" && status.message.find(text) != std::string::npos) return true;
+        }
+      }
+      ros::WallDuration(0.02).sleep();
+    }
+    return false;
+  }
+
+ private:
+  void onStatus(const dem_nerf::TrainingStatusConstPtr& status) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    received_.push_back(*status);
+  }
+  ros::Subscriber subscriber_;
+  std::mutex mutex_;
+  std::vector<dem_nerf::TrainingStatus> received_;
+};
+
+void publishCameraPair(ros::Publisher& images, ros::Publisher& infos, const std::string& encoding, int width,
+                       int info_width) {
+  sensor_msgs::Image image;
+  image.header.stamp = ros::Time::now();
+  image.header.frame_id = "camera_optical";
+  image.width = width;
+  image.height = 4;
+  image.encoding = encoding;
+  image.step = width * 4;
+  image.data.assign(image.step * image.height, 0);
+  sensor_msgs::CameraInfo info;
+  info.header = image.header;
+  info.width = info_width;
+  info.height = 4;
+  info.K = {10, 0, 4, 0, 10, 2, 0, 0, 1};
+  images.publish(image);
+  infos.publish(info);
+}
+
+bool nerfNodeAnswers() {
+  dem_nerf::SaveModel save;
+  if (!ros::service::call("/nerf_node/save", save)) return false;
+  return !save.response.ok && !save.response.message.empty();
+}
+
+TEST(NodeInterfaces, ServicesAnswerWithAClearMessage) {
+  ASSERT_TRUE(ros::service::waitForService("/nerf_node/save", ros::Duration(20)));
+  ASSERT_TRUE(ros::service::waitForService("/dem_node/solve", ros::Duration(20)));
+  EXPECT_TRUE(nerfNodeAnswers());
+  dem_nerf::Solve solve;
+  ASSERT_TRUE(ros::service::call("/dem_node/solve", solve));
+  EXPECT_FALSE(solve.response.ok);
+  EXPECT_NE(solve.response.message.find("no particle cloud"), std::string::npos) << solve.response.message;
+}
+
+TEST(NodeInterfaces, BadImagesAreReportedAndTheNodeKeepsAnswering) {
+  ros::NodeHandle node;
+  StatusWatcher status(node, "/nerf_node/status");
+  ros::Publisher images = node.advertise<sensor_msgs::Image>("/camera/image_raw", 1, true);
+  ros::Publisher infos = node.advertise<sensor_msgs::CameraInfo>("/camera/camera_info", 1, true);
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(10);
+  while (images.getNumSubscribers() == 0 && ros::WallTime::now() < deadline) ros::WallDuration(0.05).sleep();
+
+  publishCameraPair(images, infos, "32FC1", 8, 8);
+  EXPECT_TRUE(status.waitForError("encoding '32FC1' is not supported", 10));
+  EXPECT_TRUE(nerfNodeAnswers());
+
+  ros::WallDuration(0.1).sleep();
+  publishCameraPair(images, infos, "rgba8", 8, 16);
+  EXPECT_TRUE(status.waitForError("camera_info says 16x4", 10));
+  EXPECT_TRUE(nerfNodeAnswers());
+}
+
+TEST(NodeInterfaces, NanWrenchIsReportedAndTheNodeKeepsAnswering) {
+  ros::NodeHandle node;
+  StatusWatcher status(node, "/dem_node/status");
+  ros::Publisher wrenches = node.advertise<geometry_msgs::WrenchStamped>("/dem_node/wrench", 1, true);
+  geometry_msgs::WrenchStamped wrench;
+  wrench.header.frame_id = "world";
+  wrench.wrench.force.x = std::nan("");
+  wrenches.publish(wrench);
+  EXPECT_TRUE(status.waitForError("NaN", 10));
+  dem_nerf::Solve solve;
+  EXPECT_TRUE(ros::service::call("/dem_node/solve", solve));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "node_interfaces_check");
+  ros::NodeHandle node;
+  return RUN_ALL_TESTS();
+}
