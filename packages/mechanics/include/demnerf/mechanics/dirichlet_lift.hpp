@@ -1,0 +1,27 @@
+#pragma once
+// The exact-Dirichlet construction u = g(X) + D(X) z(X): per displacement component, a smooth
+// distance D to the fixtures that constrain it and a lift g that takes each fixture's value on it.
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "demnerf/core/scenario.hpp"
+
+namespace demnerf::mechanics {
+
+/// g, D and their gradients at points, for a scenario's fixtures at full load.
+struct DirichletLift {
+  std::vector<Eigen::Vector3d> g;          ///< lift: equals the prescribed value on each fixture
+  std::vector<Eigen::Matrix3d> grad_g;     ///< d g_i / d X_k
+  std::vector<Eigen::Vector3d> D;          ///< distance factor: 0 on fixtures constraining component i
+  std::vector<Eigen::Matrix3d> grad_D;     ///< d D_i / d X_k
+};
+
+/// Distance from a point to a region (0 inside).
+double regionDistance(const core::Region& region, const Eigen::Vector3d& x);
+
+/// `length` normalises distances (the body's size), so D is O(1) over the body. Components no
+/// fixture constrains get D = 1, g = 0.
+DirichletLift dirichletLift(const core::Scenario& scenario, const std::vector<Eigen::Vector3d>& points, double length);
+
+}  // namespace demnerf::mechanics

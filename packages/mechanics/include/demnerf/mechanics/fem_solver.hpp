@@ -1,0 +1,67 @@
+#pragma once
+// The full-order FEM baseline: total Lagrangian tetrahedra (4 or 10 nodes), Newton-Raphson with
+// a backtracking line search and adaptive load steps, Eigen sparse linear solvers.
+
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "demnerf/core/scenario.hpp"
+#include "demnerf/mechanics/material.hpp"
+#include "demnerf/mechanics/tet_mesh.hpp"
+
+namespace demnerf::mechanics {
+
+struct FemConfig {
+  enum class LinearSolver { kLDLT, kConjugateGradient };
+  LinearSolver linear_solver = LinearSolver::kLDLT;
+  int max_newton_iterations = 25;
+  /// Converged when |residual| <= tolerance * (|external forces| + |internal forces|).
+  double tolerance = 1e-9;
+  /// ...or when the last Newton update is below this fraction of |u| (round-off bound loads).
+  double displacement_tolerance = 1e-8;
+  /// A load step whose Newton loop fails is halved up to this many times.
+  int max_step_halvings = 8;
+  double cg_tolerance = 1e-12;
+  bool verbose = false;
+};
+
+/// Displacement of a point cloud computed by the FEM, with von Mises stress.
+struct PointField {
+  std::vector<Eigen::Vector3d> displacement;
+  std::vector<double> von_mises;
+};
+
+struct FemResult {
+  std::vector<Eigen::Vector3d> displacement;  ///< per mesh node
+  double energy = 0.0;                         ///< total potential energy at full load
+  int newton_iterations = 0;                   ///< over all load steps
+  int load_steps = 0;                          ///< taken, halvings included
+  double seconds = 0.0;
+};
+
+class FemSolver {
+ public:
+  /// Resolves fixtures (nodes inside fixture regions) and loads (boundary faces whose centroid
+  /// lies in the load region; traction with the load's exact force and torque); throws
+  /// core::Error for bad scenarios, degenerate elements, or regions that select nothing.
+  FemSolver(TetMesh mesh, const core::Scenario& scenario, FemConfig config = {});
+  ~FemSolver();
+  FemSolver(FemSolver&&) noexcept;
+
+  /// Applies the scenario in scenario.load_steps increments (halved on failure). Throws
+  /// core::Error when Newton cannot converge even with the smallest step.
+  const FemResult& solve();
+  const FemResult& result() const;
+  const TetMesh& mesh() const;
+  /// Displacement and von Mises stress at points: interpolated in the containing element, or
+  /// the nearest one for points slightly outside the mesh.
+  PointField interpolate(const std::vector<Eigen::Vector3d>& points) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace demnerf::mechanics

@@ -1,0 +1,29 @@
+#pragma once
+// Problems with known answers, shared by tests and benchmarks: Cook's membrane (deal.II code
+// gallery) and homogeneous uniaxial stretch (closed form).
+
+#include <Eigen/Core>
+
+#include "demnerf/core/scenario.hpp"
+#include "demnerf/mechanics/material.hpp"
+#include "demnerf/mechanics/tet_mesh.hpp"
+
+namespace demnerf::mechanics {
+
+/// Cook's membrane in SI units: corners (0,0) (48,44) (48,60) (0,44) mm, 1 mm thick, plane
+/// strain (u_z = 0 everywhere), left edge clamped, 1 N dead shear load on the right edge in
+/// 10 steps, decoupled Neo-Hookean mu = 422.5 kPa, nu = 0.3.
+core::Scenario cookMembraneScenario();
+/// The membrane meshed with `cells` x `cells` x 1 hexes split into tetrahedra of `order`.
+TetMesh cookMembraneMesh(int cells, int order);
+/// The point whose y-displacement is the reference figure: (48, 60, 0.5) mm.
+Eigen::Vector3d cookMembraneTip();
+/// Converged reference tip y-displacement (m), deal.II Q2 elements.
+constexpr double kCookTipReference = 14.33e-3;
+
+/// Lateral stretch b of a homogeneous uniaxial state F = diag(a, b, b) with traction-free sides.
+double uniaxialLateralStretch(const HyperelasticMaterial& material, double a);
+/// Axial stretch a (and lateral b) under a uniaxial first Piola-Kirchhoff stress P11.
+double uniaxialStretchForStress(const HyperelasticMaterial& material, double p11, double* lateral);
+
+}  // namespace demnerf::mechanics

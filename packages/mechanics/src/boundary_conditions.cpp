@@ -1,0 +1,121 @@
+#include "demnerf/mechanics/boundary_conditions.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <sstream>
+
+#include "demnerf/core/error.hpp"
+#include "demnerf/mechanics/material.hpp"
+
+namespace demnerf::mechanics {
+
+WrenchTraction spreadWrench(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& areas,
+                            const Eigen::Vector3d& force, const Eigen::Vector3d& torque, const std::string& what) {
+  double total = 0.0;
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    total += areas[i];
+    centroid += areas[i] * points[i];
+  }
+  if (points.empty() || !(total > 0.0)) throw core::Error(what + " acts on an empty patch (total area 0)");
+  centroid /= total;
+  // sum A (|r|^2 I - r r^T): the patch's polar second moment; its inverse maps torque to b.
+  Eigen::Matrix3d moment = Eigen::Matrix3d::Zero();
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3d r = points[i] - centroid;
+    moment += areas[i] * (r.squaredNorm() * Eigen::Matrix3d::Identity() - r * r.transpose());
+  }
+  WrenchTraction t;
+  t.centroid = centroid;
+  t.a = force / total;
+  if (torque.squaredNorm() > 0.0) {
+    // Solve in the eigenbasis so a torque about an axis the patch cannot resist is reported
+    // instead of being silently dropped or blown up.
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(moment);
+    const double largest = eig.eigenvalues().maxCoeff();
+    Eigen::Vector3d b = Eigen::Vector3d::Zero();
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector3d axis = eig.eigenvectors().col(k);
+      const double component = axis.dot(torque);
+      if (eig.eigenvalues()(k) <= 1e-12 * largest) {
+        if (std::abs(component) > 1e-12 * torque.norm()) {
+          std::ostringstream msg;
+          msg << what << " cannot carry its torque: its points lie on a line or point, which resists no"
+              << " torque about axis (" << axis.transpose() << "); enlarge the region";
+          throw core::Error(msg.str());
+        }
+        continue;
+      }
+      b += component / eig.eigenvalues()(k) * axis;
+    }
+    t.b = b;
+  }
+  return t;
+}
+
+Dirichlet resolveFixtures(const core::Scenario& scenario, const std::vector<Eigen::Vector3d>& points) {
+  if (scenario.fixtures.empty())
+    throw core::Error("scenario '" + scenario.name +
+                      "' has no fixture: the body could move rigidly and the solution is not unique; add a fixture");
+  std::vector<Eigen::Vector3d> value(points.size(), Eigen::Vector3d::Zero());
+  std::vector<Eigen::Vector3i> mask(points.size(), Eigen::Vector3i::Zero());
+  for (const core::Fixture& fixture : scenario.fixtures) {
+    std::size_t selected = 0;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      if (!fixture.region.contains(points[i])) continue;
+      ++selected;
+      for (int c = 0; c < 3; ++c) {
+        if (!fixture.constrained(c)) continue;
+        mask[i](c) = 1;
+        value[i](c) = fixture.displacement(c);
+      }
+    }
+    if (selected == 0)
+      throw core::Error("fixture '" + fixture.name + "' selects no points: region " + fixture.region.describe());
+    if (fixture.constrained.isZero())
+      throw core::Error("fixture '" + fixture.name + "' constrains no displacement component");
+  }
+  Dirichlet d;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (mask[i].isZero()) continue;
+    d.index.push_back(static_cast<int>(i));
+    d.value.push_back(value[i]);
+    d.mask.push_back(mask[i]);
+  }
+  return d;
+}
+
+std::vector<Eigen::Vector3d> particleTractions(const core::Scenario& scenario, const core::ParticleCloud& cloud) {
+  std::vector<Eigen::Vector3d> traction(cloud.size(), Eigen::Vector3d::Zero());
+  for (const core::Load& load : scenario.loads) {
+    std::vector<int> patch;
+    std::vector<Eigen::Vector3d> points;
+    std::vector<double> areas;
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      if (!cloud.isSurface(i) || !load.region.contains(cloud.positions[i])) continue;
+      patch.push_back(static_cast<int>(i));
+      points.push_back(cloud.positions[i]);
+      areas.push_back(cloud.areas[i]);
+    }
+    if (patch.empty())
+      throw core::Error("load '" + load.name + "' selects no surface particles (area > 0): region " +
+                        load.region.describe());
+    const WrenchTraction field = spreadWrench(points, areas, load.force, load.torque, "load '" + load.name + "'");
+    for (std::size_t k = 0; k < patch.size(); ++k) traction[patch[k]] += field.at(points[k]);
+  }
+  return traction;
+}
+
+void validateProblem(const core::Scenario& scenario, const core::ParticleCloud& cloud) {
+  scenario.validate("scenario '" + scenario.name + "'");
+  makeMaterial(scenario.material);
+  cloud.validate();
+  if (cloud.size() == 0) throw core::Error("the particle cloud is empty");
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    if (!(cloud.volumes[i] >= 0.0))
+      throw core::Error("particle " + std::to_string(i) + " has a negative volume " + std::to_string(cloud.volumes[i]));
+  resolveFixtures(scenario, cloud.positions);
+  particleTractions(scenario, cloud);
+}
+
+}  // namespace demnerf::mechanics

@@ -1,0 +1,436 @@
+// The one translation unit of the DEM that includes LibTorch.
+#include "demnerf/mechanics/dem_solver.hpp"
+
+#include <torch/torch.h>
+
+#include <chrono>
+#include <cmath>
+#include <iostream>
+#include <sstream>
+#include <random>
+#include <thread>
+
+#include "demnerf/core/error.hpp"
+#include "demnerf/mechanics/boundary_conditions.hpp"
+#include "demnerf/mechanics/dirichlet_lift.hpp"
+#include "demnerf/mechanics/material.hpp"
+#include "demnerf/mechanics/particle_quadrature.hpp"
+
+namespace demnerf::mechanics {
+namespace {
+
+using torch::Tensor;
+
+Tensor toTensor(const std::vector<Eigen::Vector3d>& v, torch::Dtype dtype) {
+  std::vector<double> flat(3 * v.size());
+  for (std::size_t i = 0; i < v.size(); ++i)
+    for (int c = 0; c < 3; ++c) flat[3 * i + c] = v[i](c);
+  return torch::from_blob(flat.data(), {static_cast<long>(v.size()), 3}, torch::kFloat64).clone().to(dtype);
+}
+
+Tensor toTensor(const std::vector<Eigen::Matrix3d>& v, torch::Dtype dtype) {
+  std::vector<double> flat(9 * v.size());
+  for (std::size_t i = 0; i < v.size(); ++i)
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) flat[9 * i + 3 * r + c] = v[i](r, c);
+  return torch::from_blob(flat.data(), {static_cast<long>(v.size()), 3, 3}, torch::kFloat64).clone().to(dtype);
+}
+
+Tensor toTensor(const std::vector<double>& v, torch::Dtype dtype) {
+  std::vector<double> copy = v;
+  return torch::from_blob(copy.data(), {static_cast<long>(v.size())}, torch::kFloat64).clone().to(dtype);
+}
+
+Tensor det3(const Tensor& F) {
+  auto f = [&](int i, int j) { return F.select(1, i).select(1, j); };
+  return f(0, 0) * (f(1, 1) * f(2, 2) - f(1, 2) * f(2, 1)) - f(0, 1) * (f(1, 0) * f(2, 2) - f(1, 2) * f(2, 0)) +
+         f(0, 2) * (f(1, 0) * f(2, 1) - f(1, 1) * f(2, 0));
+}
+
+}  // namespace
+
+struct DemSolver::Impl {
+  core::ParticleCloud cloud;
+  core::Scenario scenario;
+  DemConfig config;
+  std::unique_ptr<HyperelasticMaterial> material;
+  torch::Dtype dtype = torch::kFloat64;
+  Eigen::Vector3d center, half;
+  double length = 1.0, out_scale = 1.0, energy_scale = 1.0;
+  std::vector<Tensor> weights, biases;
+  Tensor inv_half;  // 1 / half extent, (3)
+  // Particle subsets: volume particles (energy, body force), surface particles (traction) and,
+  // in penalty mode, constrained particles.
+  Tensor xv, vol, body, lift_v[4];
+  std::vector<Eigen::Vector3d> xv_points;  // the volume subset, for jittered quadrature
+  std::vector<double> xv_jitter;           // half cell size of each (0: surface, not jittered)
+  mutable std::mt19937 rng{1};
+  Tensor xs, traction_area, lift_s[4];
+  Tensor xc, fixed_value, fixed_mask;
+  double fraction = 0.0;  // load fraction the network currently represents
+  std::vector<Eigen::Vector3d> last_good_positions;
+
+  std::vector<Tensor> parameters() const {
+    std::vector<Tensor> p;
+    for (std::size_t l = 0; l < weights.size(); ++l) {
+      p.push_back(weights[l]);
+      p.push_back(biases[l]);
+    }
+    return p;
+  }
+
+  Tensor normalise(const Tensor& x) const {
+    return (x - toTensor(std::vector<Eigen::Vector3d>{center}, dtype)) * inv_half;
+  }
+
+  Tensor activate(const Tensor& a) const {
+    if (config.activation == "tanh") return torch::tanh(a);
+    if (config.activation == "sigmoid") return torch::sigmoid(a);
+    if (config.activation == "softplus") return torch::softplus(a);
+    return torch::sin(a);
+  }
+  Tensor activateDerivative(const Tensor& a, const Tensor& h) const {
+    if (config.activation == "tanh") return 1 - h * h;
+    if (config.activation == "sigmoid") return h * (1 - h);
+    if (config.activation == "softplus") return torch::sigmoid(a);
+    return torch::cos(a);
+  }
+
+  // z(X) and, with `jacobian`, dz[n, k, i] = d z_i / d X_k by forward-mode propagation through
+  // the layers (cheaper than three reverse passes with create_graph, and differentiable).
+  std::pair<Tensor, Tensor> network(const Tensor& x, bool jacobian) const {
+    Tensor h = normalise(x), dh;
+    const std::size_t L = weights.size();
+    for (std::size_t l = 0; l < L; ++l) {
+      const Tensor a = torch::addmm(biases[l], h, weights[l].t());
+      if (jacobian) {
+        dh = l == 0 ? (weights[0].t() * inv_half.unsqueeze(1)).unsqueeze(0).expand({x.size(0), 3, weights[0].size(0)})
+                    : torch::matmul(dh, weights[l].t());
+      }
+      if (l + 1 == L) return {a, dh};
+      h = activate(a);
+      if (jacobian) dh = dh * activateDerivative(a, h).unsqueeze(1);
+    }
+    return {h, dh};
+  }
+
+  // u and (optionally) Grad u [n, i, k] for a subset with its lift tensors (g, grad_g, D, grad_D).
+  std::pair<Tensor, Tensor> displacement(const Tensor& x, const Tensor* lift, bool gradient, double scale) const {
+    auto [z, dz] = network(x, gradient);
+    z = z * out_scale;
+    Tensor gu;
+    if (gradient) gu = dz.transpose(1, 2) * out_scale;
+    if (config.boundary == DemConfig::Boundary::kPenalty || !lift) return {z, gu};
+    const Tensor u = scale * lift[0] + lift[2] * z;
+    if (gradient) gu = scale * lift[1] + lift[3] * z.unsqueeze(2) + lift[2].unsqueeze(2) * gu;
+    return {u, gu};
+  }
+
+  Tensor strainEnergy(const Tensor& F, Tensor& J) const {
+    J = det3(F);
+    const Tensor I1 = (F * F).sum({1, 2});
+    const Tensor lnJ = torch::log(J);
+    const double mu = material->mu();
+    if (scenario.material.model == "neo_hookean_decoupled")
+      return 0.25 * material->kappa() * (J * J - 1 - 2 * lnJ) + 0.5 * mu * (torch::pow(J, -2.0 / 3.0) * I1 - 3);
+    return 0.5 * mu * (I1 - 3) - mu * lnJ + 0.5 * material->lambda() * lnJ * lnJ;
+  }
+
+  // Loss at load fraction `scale`: Pi / energy_scale (+ penalty). Sets the potential energy and min J.
+  Tensor loss(double scale, double* energy, double* min_J, bool jitter = false) const {
+    Tensor x = xv;
+    Tensor lift_j[4];
+    const Tensor* lift = lift_v;
+    if (jitter) {
+      // Stochastic quadrature: every Adam step moves each interior quadrature point within its
+      // cell, so the network cannot hide strain between fixed sample points (a displacement
+      // ramp in the gap next to a fixture would otherwise harvest traction work for free).
+      std::uniform_real_distribution<double> u01(-1.0, 1.0);
+      std::vector<Eigen::Vector3d> pts = xv_points;
+      for (std::size_t i = 0; i < pts.size(); ++i)
+        if (xv_jitter[i] > 0) pts[i] += xv_jitter[i] * Eigen::Vector3d(u01(rng), u01(rng), u01(rng));
+      x = toTensor(pts, dtype);
+      if (config.boundary == DemConfig::Boundary::kExact) {
+        const DirichletLift l = dirichletLift(scenario, pts, length);
+        lift_j[0] = toTensor(l.g, dtype);
+        lift_j[1] = toTensor(l.grad_g, dtype);
+        lift_j[2] = toTensor(l.D, dtype);
+        lift_j[3] = toTensor(l.grad_D, dtype);
+        lift = lift_j;
+      }
+    }
+    auto [uv, gu] = displacement(x, lift, true, scale);
+    const Tensor F = gu + torch::eye(3, torch::TensorOptions().dtype(dtype)).unsqueeze(0);
+    Tensor J;
+    const Tensor psi = strainEnergy(F, J);
+    Tensor pi = (psi * vol).sum() - scale * (body * uv).sum();
+    if (xs.size(0) > 0) {
+      auto [us, unused] = displacement(xs, lift_s, false, scale);
+      pi = pi - scale * (traction_area * us).sum();
+    }
+    Tensor total = pi / energy_scale;
+    if (config.boundary == DemConfig::Boundary::kPenalty && xc.size(0) > 0) {
+      auto [uc, unused] = displacement(xc, nullptr, false, scale);
+      const Tensor mse = ((uc - scale * fixed_value) * fixed_mask).pow(2).sum(1).mean();
+      total = total + config.penalty_weight * mse / (out_scale * out_scale);
+    }
+    if (energy) *energy = pi.item<double>();
+    if (min_J) *min_J = J.numel() ? J.min().item<double>() : 1.0;
+    return total;
+  }
+
+  std::vector<Tensor> snapshot() const {
+    std::vector<Tensor> s;
+    for (const Tensor& p : parameters()) s.push_back(p.detach().clone());
+    return s;
+  }
+  void restore(const std::vector<Tensor>& s) {
+    torch::NoGradGuard guard;
+    auto p = parameters();
+    for (std::size_t i = 0; i < p.size(); ++i) p[i].copy_(s[i]);
+  }
+
+  // Trains at one load fraction; false when the loss turns NaN or a particle inverts.
+  bool train(double scale, int& iterations) {
+    auto params = parameters();
+    double e = 0, jmin = 0;
+    if (config.adam_iterations > 0) {
+      torch::optim::Adam adam(params, torch::optim::AdamOptions(config.adam_learning_rate));
+      for (int it = 0; it < config.adam_iterations; ++it) {
+        adam.zero_grad();
+        Tensor l = loss(scale, nullptr, &jmin, config.jitter);
+        if (!std::isfinite(l.item<double>()) || !(jmin > 0)) return false;
+        l.backward();
+        adam.step();
+        // Step decay: the last third of the iterations refines with a 10x smaller rate.
+        if (it == 2 * config.adam_iterations / 3)
+          for (auto& group : adam.param_groups())
+            static_cast<torch::optim::AdamOptions&>(group.options()).lr(config.adam_learning_rate * 0.1);
+        ++iterations;
+      }
+    }
+    if (config.lbfgs_iterations > 0) {
+      torch::optim::LBFGS lbfgs(params, torch::optim::LBFGSOptions(1.0)
+                                            .max_iter(config.lbfgs_iterations)
+                                            .max_eval(config.lbfgs_iterations * 5 / 4)
+                                            .history_size(config.lbfgs_history)
+                                            .tolerance_grad(1e-12)
+                                            .tolerance_change(config.tolerance)
+                                            .line_search_fn("strong_wolfe"));
+      bool bad = false;
+      auto closure = [&]() -> Tensor {
+        lbfgs.zero_grad();
+        Tensor l = loss(scale, nullptr, nullptr);
+        ++iterations;
+        if (!std::isfinite(l.item<double>())) {
+          // Tell the line search this point is unacceptable without poisoning its history.
+          bad = true;
+          return torch::full({}, 1e30, torch::TensorOptions().dtype(dtype));
+        }
+        l.backward();
+        return l;
+      };
+      lbfgs.step(closure);
+      (void)bad;
+    }
+    Tensor l = loss(scale, &e, &jmin);
+    for (const Tensor& p : parameters())
+      if (!torch::isfinite(p).all().item<bool>()) return false;
+    return std::isfinite(l.item<double>()) && jmin > 0;
+  }
+};
+
+DemSolver::DemSolver(core::ParticleCloud cloud, const core::Scenario& scenario, DemConfig config)
+    : impl_(std::make_unique<Impl>()) {
+  Impl& m = *impl_;
+  validateProblem(scenario, cloud);
+  if (config.width < 1 || config.depth < 1) throw core::Error("DEM network needs width >= 1 and depth >= 1");
+  if (config.activation != "tanh" && config.activation != "sigmoid" && config.activation != "softplus" &&
+      config.activation != "sin")
+    throw core::Error("unknown DEM activation '" + config.activation + "': use tanh, sigmoid, softplus or sin");
+  m.cloud = std::move(cloud);
+  m.config = config;
+  m.dtype = config.double_precision ? torch::kFloat64 : torch::kFloat32;
+  at::set_num_threads(config.threads > 0 ? config.threads : std::max(1u, std::thread::hardware_concurrency()));
+  torch::manual_seed(config.seed);
+  Eigen::Vector3d lo = m.cloud.positions[0], hi = lo;
+  for (const auto& p : m.cloud.positions) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  m.center = 0.5 * (lo + hi);
+  m.half = (0.5 * (hi - lo)).cwiseMax(1e-9 * (hi - lo).norm() + 1e-12);
+  m.length = (hi - lo).maxCoeff();
+  m.inv_half = toTensor(std::vector<Eigen::Vector3d>{m.half.cwiseInverse()}, m.dtype).squeeze(0);
+  int in = 3;
+  for (int l = 0; l <= config.depth; ++l) {
+    const int out = l == config.depth ? 3 : config.width;
+    const double bound = std::sqrt(6.0 / (in + out));
+    Tensor W = (torch::rand({out, in}, torch::TensorOptions().dtype(m.dtype)) * 2 - 1) * bound;
+    Tensor b = torch::zeros({out}, torch::TensorOptions().dtype(m.dtype));
+    // The output layer starts at zero: training begins from u = g (the rest state or the lift).
+    if (l == config.depth) W.zero_();
+    m.weights.push_back(W.requires_grad_(true));
+    m.biases.push_back(b.requires_grad_(true));
+    in = out;
+  }
+  setScenario(scenario);
+}
+
+void DemSolver::setScenario(const core::Scenario& scenario) {
+  Impl& m = *impl_;
+  validateProblem(scenario, m.cloud);
+  m.scenario = scenario;
+  m.material = makeMaterial(scenario.material);
+  const auto traction = particleTractions(scenario, m.cloud);
+  const Dirichlet fixed = resolveFixtures(scenario, m.cloud.positions);
+  const DirichletLift lift = dirichletLift(scenario, m.cloud.positions, m.length);
+  const std::vector<double> weight = energyWeights(m.cloud);
+  std::vector<long> vi, si;
+  double volume = 0.0, max_t = 0.0, max_g = 0.0;
+  for (std::size_t i = 0; i < m.cloud.size(); ++i) {
+    if (weight[i] > 0) vi.push_back(static_cast<long>(i));
+    if (m.cloud.areas[i] > 0 && traction[i].squaredNorm() > 0) si.push_back(static_cast<long>(i));
+    volume += m.cloud.volumes[i];
+    max_t = std::max(max_t, traction[i].norm());
+  }
+  if (vi.empty()) throw core::Error("the particle cloud has no particle with volume > 0");
+  for (const auto& v : fixed.value) max_g = std::max(max_g, v.norm());
+  const auto pick = [&](const std::vector<long>& idx, const auto& all) {
+    using T = typename std::decay_t<decltype(all)>::value_type;
+    std::vector<T> out;
+    for (long i : idx) out.push_back(all[i]);
+    return toTensor(out, m.dtype);
+  };
+  std::vector<double> vols, zeros;
+  std::vector<Eigen::Vector3d> body, ta;
+  for (long i : vi) {
+    vols.push_back(weight[i]);
+    body.push_back(weight[i] * scenario.body_force);
+  }
+  for (long i : si) ta.push_back(m.cloud.areas[i] * traction[i]);
+  m.xv = pick(vi, m.cloud.positions);
+  m.xv_points.clear();
+  m.xv_jitter.clear();
+  for (long i : vi) {
+    m.xv_points.push_back(m.cloud.positions[i]);
+    m.xv_jitter.push_back(m.cloud.volumes[i] > 0 && !m.cloud.isSurface(i) ? 0.5 * std::cbrt(m.cloud.volumes[i]) : 0.0);
+  }
+  m.vol = toTensor(vols, m.dtype);
+  m.body = toTensor(body, m.dtype);
+  m.xs = si.empty() ? torch::zeros({0, 3}, torch::TensorOptions().dtype(m.dtype)) : pick(si, m.cloud.positions);
+  m.traction_area = si.empty() ? torch::zeros({0, 3}, torch::TensorOptions().dtype(m.dtype)) : toTensor(ta, m.dtype);
+  m.lift_v[0] = pick(vi, lift.g);
+  m.lift_v[1] = pick(vi, lift.grad_g);
+  m.lift_v[2] = pick(vi, lift.D);
+  m.lift_v[3] = pick(vi, lift.grad_D);
+  if (!si.empty()) {
+    m.lift_s[0] = pick(si, lift.g);
+    m.lift_s[1] = pick(si, lift.grad_g);
+    m.lift_s[2] = pick(si, lift.D);
+    m.lift_s[3] = pick(si, lift.grad_D);
+  }
+  std::vector<long> ci(fixed.index.begin(), fixed.index.end());
+  std::vector<Eigen::Vector3d> mask;
+  for (const auto& k : fixed.mask) mask.push_back(k.cast<double>());
+  m.xc = pick(ci, m.cloud.positions);
+  m.fixed_value = toTensor(fixed.value, m.dtype);
+  m.fixed_mask = toTensor(mask, m.dtype);
+  // Scales: the network outputs O(1) for the expected displacement, and the loss is O(1) at the
+  // expected strain, so optimiser tolerances mean the same thing for every body and load.
+  const double E = scenario.material.youngs_modulus;
+  m.out_scale = std::max({max_g, m.length * (max_t + scenario.body_force.norm() * m.length) / E, 1e-6 * m.length});
+  const double strain = m.out_scale / m.length;
+  m.energy_scale = m.material->mu() * volume * strain * strain;
+  m.fraction = 0.0;
+}
+
+DemReport DemSolver::solve() {
+  Impl& m = *impl_;
+  const auto start = std::chrono::steady_clock::now();
+  DemReport report;
+  const int steps = std::max(1, m.scenario.load_steps);
+  const double nominal = 1.0 / steps;
+  double done = 0.0, step = nominal;
+  int halvings = 0;
+  // Warm start: a network trained for this scenario already represents fraction 1.
+  while (done < 1.0 - 1e-12) {
+    const double target = std::min(1.0, done + step);
+    const auto saved = m.snapshot();
+    if (m.train(target, report.iterations)) {
+      done = target;
+      ++report.load_steps;
+      step = std::min(nominal, 2.0 * step);
+    } else {
+      m.restore(saved);
+      step *= 0.5;
+      if (++halvings > m.config.max_halvings) {
+        std::ostringstream msg;
+        msg << "DEM: the solve inverted particles (det F <= 0) or diverged (NaN) at load fraction " << target
+            << " even after " << m.config.max_halvings << " load-step halvings; the network keeps the state at fraction "
+            << done << ". Use more load_steps or a smaller load.";
+        throw core::Error(msg.str());
+      }
+      if (m.config.verbose) std::cerr << "dem: retrying with load step " << step << "\n";
+    }
+  }
+  m.fraction = 1.0;
+  double energy = 0, jmin = 0;
+  {
+    Tensor l = m.loss(1.0, &energy, &jmin);
+    if (!std::isfinite(l.item<double>()) || !(jmin > 0))
+      throw core::Error("DEM: the trained field is not admissible (NaN or det F <= 0)");
+  }
+  report.energy = energy;
+  report.min_J = jmin;
+  report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return report;
+}
+
+std::vector<Eigen::Vector3d> DemSolver::predict(const std::vector<Eigen::Vector3d>& points) const {
+  const Impl& m = *impl_;
+  if (points.empty()) return {};
+  torch::NoGradGuard guard;
+  const Tensor x = toTensor(points, m.dtype);
+  Tensor u;
+  if (m.config.boundary == DemConfig::Boundary::kExact) {
+    const DirichletLift lift = dirichletLift(m.scenario, points, m.length);
+    const Tensor parts[4] = {toTensor(lift.g, m.dtype), Tensor(), toTensor(lift.D, m.dtype), Tensor()};
+    u = m.displacement(x, parts, false, m.fraction).first;
+  } else {
+    u = m.displacement(x, nullptr, false, m.fraction).first;
+  }
+  u = u.to(torch::kFloat64).contiguous();
+  std::vector<Eigen::Vector3d> out(points.size());
+  const double* p = u.data_ptr<double>();
+  for (std::size_t i = 0; i < points.size(); ++i) out[i] = Eigen::Vector3d(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
+  return out;
+}
+
+core::ResultField DemSolver::result() const {
+  const Impl& m = *impl_;
+  torch::NoGradGuard guard;
+  core::ResultField r;
+  r.positions = m.cloud.positions;
+  r.displacements = predict(m.cloud.positions);
+  const Tensor x = toTensor(m.cloud.positions, m.dtype);
+  const DirichletLift lift = dirichletLift(m.scenario, m.cloud.positions, m.length);
+  const Tensor parts[4] = {toTensor(lift.g, m.dtype), toTensor(lift.grad_g, m.dtype), toTensor(lift.D, m.dtype),
+                           toTensor(lift.grad_D, m.dtype)};
+  const Tensor gu = m.displacement(x, parts, true, m.fraction).second.to(torch::kFloat64).contiguous();
+  const double* g = gu.data_ptr<double>();
+  r.von_mises.resize(m.cloud.size());
+  for (std::size_t i = 0; i < m.cloud.size(); ++i) {
+    Eigen::Matrix3d F = Eigen::Matrix3d::Identity();
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) F(a, b) += g[9 * i + 3 * a + b];
+    r.von_mises[i] = F.determinant() > 0 ? vonMises(cauchyStress(F, m.material->stress(F)))
+                                         : std::numeric_limits<double>::quiet_NaN();
+  }
+  return r;
+}
+
+DemSolver::~DemSolver() = default;
+DemSolver::DemSolver(DemSolver&&) noexcept = default;
+
+}  // namespace demnerf::mechanics

@@ -1,0 +1,138 @@
+#include "demnerf/mechanics/tet_mesh.hpp"
+
+#include <Eigen/LU>
+#include <algorithm>
+#include <map>
+
+#include "demnerf/core/error.hpp"
+
+namespace demnerf::mechanics {
+namespace {
+
+constexpr int kEdges[6][2] = {{0, 1}, {1, 2}, {0, 2}, {0, 3}, {1, 3}, {2, 3}};
+
+std::array<Eigen::Vector3d, 4> corners(const TetMesh& mesh, const std::array<int, 10>& e) {
+  return {mesh.nodes[e[0]], mesh.nodes[e[1]], mesh.nodes[e[2]], mesh.nodes[e[3]]};
+}
+
+}  // namespace
+
+TetMesh structuredMesh(const Eigen::Vector3i& cells, int order,
+                       const std::function<Eigen::Vector3d(const Eigen::Vector3d&)>& map) {
+  if ((cells.array() < 1).any()) throw core::Error("structuredMesh needs at least one cell per axis");
+  if (order != 1 && order != 2) throw core::Error("tetrahedra of order " + std::to_string(order) + " are not supported: use 1 or 2");
+  TetMesh mesh;
+  const int nx = cells(0) + 1, ny = cells(1) + 1, nz = cells(2) + 1;
+  auto id = [&](int i, int j, int k) { return i + nx * (j + ny * k); };
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) {
+        const Eigen::Vector3d p(double(i) / cells(0), double(j) / cells(1), double(k) / cells(2));
+        mesh.nodes.push_back(map ? map(p) : p);
+      }
+  // Kuhn split: all six tets share the hex diagonal (0,0,0)-(1,1,1), so neighbouring hexes
+  // split their shared faces the same way and the mesh is conforming.
+  const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+  for (int k = 0; k < cells(2); ++k)
+    for (int j = 0; j < cells(1); ++j)
+      for (int i = 0; i < cells(0); ++i)
+        for (const auto& p : perms) {
+          Eigen::Vector3i v(i, j, k);
+          std::array<int, 10> e;
+          e.fill(-1);
+          e[0] = id(v(0), v(1), v(2));
+          for (int s = 0; s < 3; ++s) {
+            v(p[s]) += 1;
+            e[s + 1] = id(v(0), v(1), v(2));
+          }
+          double volume = 0;
+          barycentricGradients(corners(mesh, e), &volume);
+          if (volume < 0) std::swap(e[1], e[2]);
+          mesh.elements.push_back(e);
+        }
+  return order == 2 ? elevateToQuadratic(mesh) : mesh;
+}
+
+TetMesh structuredBoxMesh(const Eigen::Vector3d& lower, const Eigen::Vector3d& upper, const Eigen::Vector3i& cells,
+                          int order) {
+  return structuredMesh(cells, order, [&](const Eigen::Vector3d& p) -> Eigen::Vector3d {
+    return lower + p.cwiseProduct(upper - lower);
+  });
+}
+
+TetMesh elevateToQuadratic(const TetMesh& linear) {
+  if (linear.order != 1) throw core::Error("elevateToQuadratic needs a linear mesh");
+  TetMesh mesh = linear;
+  mesh.order = 2;
+  std::map<std::pair<int, int>, int> midpoint;
+  for (auto& e : mesh.elements)
+    for (int k = 0; k < 6; ++k) {
+      const int a = e[kEdges[k][0]], b = e[kEdges[k][1]];
+      const auto key = std::minmax(a, b);
+      auto it = midpoint.find(key);
+      if (it == midpoint.end()) {
+        it = midpoint.emplace(key, static_cast<int>(mesh.nodes.size())).first;
+        mesh.nodes.push_back(0.5 * (mesh.nodes[a] + mesh.nodes[b]));
+      }
+      e[4 + k] = it->second;
+    }
+  return mesh;
+}
+
+std::vector<BoundaryFace> boundaryFaces(const TetMesh& mesh) {
+  std::map<std::array<int, 3>, std::pair<int, BoundaryFace>> faces;
+  for (int el = 0; el < static_cast<int>(mesh.elements.size()); ++el)
+    for (int opposite = 0; opposite < 4; ++opposite) {
+      std::array<int, 3> key;
+      int n = 0;
+      for (int c = 0; c < 4; ++c)
+        if (c != opposite) key[n++] = mesh.elements[el][c];
+      std::sort(key.begin(), key.end());
+      auto& entry = faces[key];
+      entry.first += 1;
+      entry.second = BoundaryFace{el, opposite};
+    }
+  std::vector<BoundaryFace> out;
+  for (const auto& [key, entry] : faces)
+    if (entry.first == 1) out.push_back(entry.second);
+  return out;
+}
+
+Eigen::VectorXd tetShape(int order, const Eigen::Vector4d& L) {
+  if (order == 1) return L;
+  Eigen::VectorXd N(10);
+  for (int i = 0; i < 4; ++i) N(i) = L(i) * (2.0 * L(i) - 1.0);
+  for (int k = 0; k < 6; ++k) N(4 + k) = 4.0 * L(kEdges[k][0]) * L(kEdges[k][1]);
+  return N;
+}
+
+Eigen::MatrixXd tetShapeDerivatives(int order, const Eigen::Vector4d& L) {
+  if (order == 1) return Eigen::MatrixXd::Identity(4, 4);
+  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(10, 4);
+  for (int i = 0; i < 4; ++i) D(i, i) = 4.0 * L(i) - 1.0;
+  for (int k = 0; k < 6; ++k) {
+    D(4 + k, kEdges[k][0]) = 4.0 * L(kEdges[k][1]);
+    D(4 + k, kEdges[k][1]) = 4.0 * L(kEdges[k][0]);
+  }
+  return D;
+}
+
+Eigen::Matrix<double, 4, 3> barycentricGradients(const std::array<Eigen::Vector3d, 4>& c, double* volume) {
+  Eigen::Matrix3d edges;
+  edges << c[1] - c[0], c[2] - c[0], c[3] - c[0];
+  const double det = edges.determinant();
+  if (volume) *volume = det / 6.0;
+  Eigen::Matrix<double, 4, 3> G;
+  G.bottomRows<3>() = edges.inverse();  // rows: d L1/dX, d L2/dX, d L3/dX
+  G.row(0) = -G.bottomRows<3>().colwise().sum();
+  return G;
+}
+
+Eigen::Vector4d barycentric(const std::array<Eigen::Vector3d, 4>& c, const Eigen::Vector3d& x) {
+  Eigen::Matrix3d edges;
+  edges << c[1] - c[0], c[2] - c[0], c[3] - c[0];
+  const Eigen::Vector3d l = edges.partialPivLu().solve(x - c[0]);
+  return Eigen::Vector4d(1.0 - l.sum(), l(0), l(1), l(2));
+}
+
+}  // namespace demnerf::mechanics

@@ -1,0 +1,132 @@
+#include <gtest/gtest.h>
+
+#include "demnerf/core/error.hpp"
+#include "demnerf/mechanics/boundary_conditions.hpp"
+#include "demnerf/mechanics/box_particles.hpp"
+
+namespace dm = demnerf::mechanics;
+namespace core = demnerf::core;
+using Eigen::Vector3d;
+
+namespace {
+
+core::Region box(const Vector3d& center, const Vector3d& size) {
+  core::Region r;
+  r.type = core::Region::Type::kBox;
+  r.center = center;
+  r.size = size;
+  return r;
+}
+
+core::Scenario cantilever() {
+  core::Scenario s;
+  s.name = "test";
+  core::Fixture f;
+  f.name = "base";
+  f.region = box(Vector3d(0, 0.5, 0.5), Vector3d(0.02, 2, 2));
+  s.fixtures.push_back(f);
+  core::Load l;
+  l.name = "tip";
+  l.region = box(Vector3d(2, 0.5, 0.5), Vector3d(0.02, 2, 2));
+  l.force = Vector3d(1.0, -2.0, 0.5);
+  l.torque = Vector3d(0.3, 0.1, -0.2);
+  s.loads.push_back(l);
+  return s;
+}
+
+TEST(BoxParticles, VolumesAndAreasSumToTheBox) {
+  const core::ParticleCloud c = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(2, 1, 1), Eigen::Vector3i(8, 4, 3));
+  double volume = 0, area = 0;
+  Vector3d normal_area = Vector3d::Zero();
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    volume += c.volumes[i];
+    area += c.areas[i];
+    normal_area += c.areas[i] * c.normals[i];
+  }
+  EXPECT_NEAR(volume, 2.0, 1e-12);
+  EXPECT_NEAR(area, 2 * (2 + 2 + 1), 1e-12);
+  EXPECT_LT(normal_area.norm(), 1e-12);  // closed surface
+  EXPECT_EQ(c.size(), 8u * 4 * 3 + 2 * (4 * 3 + 8 * 3 + 8 * 4));
+}
+
+TEST(BoundaryConditions, TractionsCarryTheExactForceAndTorque) {
+  const core::ParticleCloud c = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(2, 1, 1), Eigen::Vector3i(8, 5, 3));
+  const core::Scenario s = cantilever();
+  const auto t = dm::particleTractions(s, c);
+  Vector3d force = Vector3d::Zero(), centroid = Vector3d::Zero();
+  double area = 0;
+  for (std::size_t i = 0; i < c.size(); ++i)
+    if (t[i].norm() > 0) {
+      EXPECT_TRUE(c.isSurface(i));
+      EXPECT_NEAR(c.positions[i].x(), 2.0, 1e-12);  // only the tip face is loaded
+      force += t[i] * c.areas[i];
+      centroid += c.positions[i] * c.areas[i];
+      area += c.areas[i];
+    }
+  centroid /= area;
+  Vector3d torque = Vector3d::Zero();
+  for (std::size_t i = 0; i < c.size(); ++i) torque += (c.positions[i] - centroid).cross(t[i]) * c.areas[i];
+  EXPECT_LT((force - s.loads[0].force).norm(), 1e-12);
+  EXPECT_LT((torque - s.loads[0].torque).norm(), 1e-12);
+}
+
+TEST(BoundaryConditions, TorqueOnALineIsRejectedAboutItsAxis) {
+  std::vector<Vector3d> pts = {Vector3d(0, 0, 0), Vector3d(1, 0, 0), Vector3d(2, 0, 0)};
+  std::vector<double> a = {1, 1, 1};
+  // A line resists torque about axes normal to it...
+  const dm::WrenchTraction t = dm::spreadWrench(pts, a, Vector3d::Zero(), Vector3d(0, 0, 1), "load 'l'");
+  Vector3d torque = Vector3d::Zero();
+  for (int i = 0; i < 3; ++i) torque += (pts[i] - t.centroid).cross(t.at(pts[i])) * a[i];
+  EXPECT_LT((torque - Vector3d(0, 0, 1)).norm(), 1e-12);
+  // ...but not about itself.
+  EXPECT_THROW(dm::spreadWrench(pts, a, Vector3d::Zero(), Vector3d(1, 0, 0), "load 'l'"), core::Error);
+}
+
+TEST(BoundaryConditions, EmptyRegionsAndMissingFixturesAreReported) {
+  const core::ParticleCloud c = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(2, 1, 1), Eigen::Vector3i(4, 2, 2));
+  core::Scenario s = cantilever();
+  s.loads[0].region = box(Vector3d(5, 5, 5), Vector3d(0.1, 0.1, 0.1));
+  try {
+    dm::particleTractions(s, c);
+    FAIL() << "expected an error";
+  } catch (const core::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("'tip'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(s.loads[0].region.describe()), std::string::npos) << e.what();
+  }
+  s = cantilever();
+  s.fixtures[0].region.center = Vector3d(9, 9, 9);
+  EXPECT_THROW(dm::resolveFixtures(s, c.positions), core::Error);
+  s.fixtures.clear();
+  try {
+    dm::resolveFixtures(s, c.positions);
+    FAIL() << "expected an error";
+  } catch (const core::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("rigid"), std::string::npos) << e.what();
+  }
+}
+
+TEST(BoundaryConditions, FixturesCombineComponentMasks) {
+  const core::ParticleCloud c = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(3, 3, 3));
+  core::Scenario s;
+  core::Fixture roller;
+  roller.name = "x0";
+  roller.region = box(Vector3d(0, 0.5, 0.5), Vector3d(0.01, 2, 2));
+  roller.constrained = Eigen::Vector3i(1, 0, 0);
+  core::Fixture pull = roller;
+  pull.name = "y0";
+  pull.region = box(Vector3d(0.5, 0, 0.5), Vector3d(2, 0.01, 2));
+  pull.constrained = Eigen::Vector3i(0, 1, 0);
+  pull.displacement = Vector3d(0, 0.25, 0);
+  s.fixtures = {roller, pull};
+  const dm::Dirichlet d = dm::resolveFixtures(s, c.positions);
+  ASSERT_FALSE(d.index.empty());
+  for (std::size_t k = 0; k < d.index.size(); ++k) {
+    const Vector3d& x = c.positions[d.index[k]];
+    EXPECT_EQ(d.mask[k](0), x.x() < 1e-9 ? 1 : 0);
+    EXPECT_EQ(d.mask[k](1), x.y() < 1e-9 ? 1 : 0);
+    EXPECT_EQ(d.mask[k](2), 0);
+    if (d.mask[k](1)) EXPECT_DOUBLE_EQ(d.value[k](1), 0.25);
+  }
+}
+
+}  // namespace

@@ -1,0 +1,137 @@
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+
+#include "demnerf/core/error.hpp"
+#include "demnerf/mechanics/box_particles.hpp"
+#include "demnerf/mechanics/dem_solver.hpp"
+#include "demnerf/mechanics/reference_problems.hpp"
+
+namespace dm = demnerf::mechanics;
+namespace core = demnerf::core;
+using Eigen::Vector3d;
+
+namespace {
+
+core::Region box(const Vector3d& center, const Vector3d& size) {
+  core::Region r;
+  r.type = core::Region::Type::kBox;
+  r.center = center;
+  r.size = size;
+  return r;
+}
+
+core::Fixture roller(int axis) {
+  core::Fixture f;
+  f.name = std::string("roller_") + "xyz"[axis];
+  Vector3d c(0.5, 0.5, 0.5), s(2, 2, 2);
+  c(axis) = 0.0;
+  s(axis) = 1e-6;
+  f.region = box(c, s);
+  f.constrained = Eigen::Vector3i::Zero();
+  f.constrained(axis) = 1;
+  return f;
+}
+
+// Unit cube on rollers, pulled by a uniform traction P11 on x = 1.
+core::Scenario uniaxial(double p11) {
+  core::Scenario s;
+  s.name = "uniaxial";
+  s.material.youngs_modulus = 1e6;
+  s.material.poisson_ratio = 0.3;
+  s.fixtures = {roller(0), roller(1), roller(2)};
+  core::Load pull;
+  pull.name = "pull";
+  pull.region = box(Vector3d(1, 0.5, 0.5), Vector3d(1e-6, 2, 2));
+  pull.force = Vector3d(p11, 0, 0);
+  s.loads = {pull};
+  return s;
+}
+
+double relativeError(const dm::DemSolver& dem, const core::ParticleCloud& cloud, double a, double b) {
+  const auto u = dem.predict(cloud.positions);
+  double err = 0, ref = 0;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Vector3d& X = cloud.positions[i];
+    const Vector3d exact((a - 1) * X.x(), (b - 1) * X.y(), (b - 1) * X.z());
+    err = std::max(err, (u[i] - exact).norm());
+    ref = std::max(ref, exact.norm());
+  }
+  return err / ref;
+}
+
+TEST(Dem, UniaxialTractionMatchesTheClosedFormWithExactBoundaries) {
+  const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(6, 6, 6));
+  const core::Scenario s = uniaxial(2e5);
+  dm::DemConfig config;
+  config.width = 16;
+  config.depth = 2;
+  config.adam_iterations = 600;
+  config.threads = 1;
+  dm::DemSolver dem(cloud, s, config);
+  const dm::DemReport r = dem.solve();
+  double b = 0;
+  const double a = dm::uniaxialStretchForStress(*dm::makeMaterial(s.material), 2e5, &b);
+  const double error = relativeError(dem, cloud, a, b);
+  std::cout << "DEM exact BCs: max rel error " << error << ", " << r.iterations << " iterations, " << r.seconds << " s\n";
+  // Not yet the 1 % of issue 6 (see notes/mechanics.md): a guard that the field is the right
+  // homogeneous stretch and not the rigid-translation exploit (errors of 1000 % and more).
+  EXPECT_LT(error, 0.2);
+  EXPECT_GT(r.min_J, 0.0);
+  // The result field has one row per particle, in order, with the homogeneous von Mises stress.
+  const core::ResultField field = dem.result();
+  ASSERT_EQ(field.size(), cloud.size());
+  EXPECT_NEAR(field.von_mises[0], 2e5 / (b * b), 0.1 * 2e5);
+}
+
+TEST(Dem, UniaxialTractionWithThePenaltyFormulation) {
+  const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(6, 6, 6));
+  const core::Scenario s = uniaxial(2e5);
+  dm::DemConfig config;
+  config.width = 16;
+  config.depth = 2;
+  config.boundary = dm::DemConfig::Boundary::kPenalty;
+  config.adam_iterations = 600;
+  config.threads = 1;
+  dm::DemSolver dem(cloud, s, config);
+  const dm::DemReport r = dem.solve();
+  double b = 0;
+  const double a = dm::uniaxialStretchForStress(*dm::makeMaterial(s.material), 2e5, &b);
+  const double error = relativeError(dem, cloud, a, b);
+  std::cout << "DEM penalty BCs: max rel error " << error << ", " << r.seconds << " s\n";
+  EXPECT_LT(error, 0.2);
+}
+
+TEST(Dem, BadInputFailsBeforeTraining) {
+  const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(3, 3, 3));
+  core::Scenario s = uniaxial(1e5);
+  s.fixtures.clear();
+  EXPECT_THROW(dm::DemSolver(cloud, s), core::Error);
+  s = uniaxial(1e5);
+  s.loads[0].region.center = Vector3d(4, 4, 4);
+  EXPECT_THROW(dm::DemSolver(cloud, s), core::Error);
+  s = uniaxial(1e5);
+  s.material.poisson_ratio = 0.5;
+  EXPECT_THROW(dm::DemSolver(cloud, s), core::Error);
+  s = uniaxial(1e5);
+  dm::DemConfig config;
+  config.activation = "relu6";
+  EXPECT_THROW(dm::DemSolver(cloud, s, config), core::Error);
+}
+
+TEST(Dem, CrushingLoadIsReportedNotReturned) {
+  // A compressive load the body cannot carry in one go: det F <= 0 must surface as an error.
+  const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(3, 3, 3));
+  core::Scenario s = uniaxial(-5e7);
+  dm::DemConfig config;
+  config.width = 8;
+  config.depth = 1;
+  config.adam_iterations = 50;
+  config.threads = 1;
+  config.max_halvings = 1;
+  dm::DemSolver dem(cloud, s, config);
+  EXPECT_THROW(dem.solve(), core::Error);
+}
+
+}  // namespace
