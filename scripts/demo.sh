@@ -38,7 +38,12 @@ if [ -d "$DATA" ]; then
 fi
 stage train "$CLI" train --data "$DATA" --out "$OUT/model.nerf" --seconds 60
 stage extract "$CLI" extract --model "$OUT/model.nerf" --mesh "$OUT/mesh.ply"
-stage sample "$CLI" sample --mesh "$OUT/mesh.ply" --method poisson --spacing 0.01 --out "$OUT/particles.ply"
+MESH="$OUT/mesh.ply"
+if [ ! -f "$MESH" ] && [ -f "$DATA/mesh.ply" ]; then
+  echo "   (no mesh from the NeRF: sampling the dataset's exact mesh instead)"
+  MESH="$DATA/mesh.ply"
+fi
+stage sample "$CLI" sample --mesh "$MESH" --method poisson --spacing 0.01 --out "$OUT/particles.ply"
 stage simulate "$CLI" simulate --particles "$OUT/particles.ply" --scenario config/scenarios/tbar_twist.yaml \
   --solver dem --out "$OUT/displaced.ply"
 stage render "$CLI" render --model "$OUT/model.nerf" --data "$DATA" --split test --out "$OUT/rendered" \

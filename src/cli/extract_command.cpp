@@ -50,7 +50,7 @@ Figures runExtract(const Arguments& arguments) {
 #else
   (void)model_path;
   (void)mesh_path;
-  throw NotBuiltYet("demnerf extract needs the NeRF library (packages/nerf), which is not in this build");
+  throw NotBuiltYet("demnerf extract needs the NeRF library (packages/nerf), which is not built yet in this build");
 #endif
 }
 

@@ -90,7 +90,7 @@ Figures runSample(const Arguments& arguments) {
     cloud = geometry::sampleParticles(mesh, config, &report);
     colourFromModel(model, &cloud);
 #else
-    throw NotBuiltYet("demnerf sample --model needs the NeRF library (packages/nerf), which is not in this build");
+    throw NotBuiltYet("demnerf sample --model needs the NeRF library (packages/nerf), which is not built yet in this build");
 #endif
   }
   core::writeParticles(out_path, cloud);
