@@ -1,0 +1,81 @@
+#pragma once
+// Runs jobs one at a time on its own thread; a job submitted while another runs replaces any
+// job still waiting (latest wins), so a burst of wrench messages costs one solve, not fifty,
+// and ROS callbacks never block on the work.
+
+#include <condition_variable>
+#include <functional>
+#include <mutex>
+#include <optional>
+#include <thread>
+
+namespace dem_nerf {
+
+template <typename Job>
+class LatestWinsWorker {
+ public:
+  explicit LatestWinsWorker(std::function<void(const Job&)> work) : work_(std::move(work)), thread_([this] { run(); }) {}
+
+  ~LatestWinsWorker() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stopping_ = true;
+    }
+    wake_.notify_all();
+    thread_.join();
+  }
+
+  LatestWinsWorker(const LatestWinsWorker&) = delete;
+  LatestWinsWorker& operator=(const LatestWinsWorker&) = delete;
+
+  /// Queues the job; returns true when it replaced one that had not started yet.
+  bool submit(Job job) {
+    bool replaced = false;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      replaced = waiting_.has_value();
+      waiting_ = std::move(job);
+    }
+    wake_.notify_all();
+    return replaced;
+  }
+
+  /// True while a job runs or waits.
+  bool busy() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return running_ || waiting_.has_value();
+  }
+
+  /// Blocks until no job runs or waits (for tests and shutdown).
+  void waitIdle() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    idle_.wait(lock, [this] { return !running_ && !waiting_.has_value(); });
+  }
+
+ private:
+  void run() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    while (true) {
+      wake_.wait(lock, [this] { return stopping_ || waiting_.has_value(); });
+      if (stopping_) return;
+      Job job = std::move(*waiting_);
+      waiting_.reset();
+      running_ = true;
+      lock.unlock();
+      work_(job);  // the work reports its own errors; nothing escapes into this thread
+      lock.lock();
+      running_ = false;
+      if (!waiting_) idle_.notify_all();
+    }
+  }
+
+  std::function<void(const Job&)> work_;
+  mutable std::mutex mutex_;
+  std::condition_variable wake_, idle_;
+  std::optional<Job> waiting_;
+  bool running_ = false;
+  bool stopping_ = false;
+  std::thread thread_;  // last: starts after every member above exists
+};
+
+}  // namespace dem_nerf
