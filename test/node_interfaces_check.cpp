@@ -97,6 +97,11 @@ TEST(NodeInterfaces, BadImagesAreReportedAndTheNodeKeepsAnswering) {
   publishCameraPair(images, infos, "rgba8", 8, 16);
   EXPECT_TRUE(status.waitForError("camera_info says 16x4", 10));
   EXPECT_TRUE(nerfNodeAnswers());
+
+  ros::WallDuration(0.1).sleep();
+  publishCameraPair(images, infos, "rgba8", 8, 8);  // a good image whose frame has no tf
+  EXPECT_TRUE(status.waitForError("no tf from 'world' to the image frame 'camera_optical'", 10));
+  EXPECT_TRUE(nerfNodeAnswers());
 }
 
 TEST(NodeInterfaces, NanWrenchIsReportedAndTheNodeKeepsAnswering) {

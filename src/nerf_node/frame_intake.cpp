@@ -80,7 +80,7 @@ void FrameIntake::add(const sensor_msgs::Image& image, const sensor_msgs::Camera
   }
 }
 
-std::vector<demnerf::core::Frame> FrameIntake::poll(const ros::Time&) {
+std::vector<demnerf::core::Frame> FrameIntake::poll(std::vector<std::string>* dropped) {
   std::vector<demnerf::core::Frame> keyframes;
   std::lock_guard<std::mutex> lock(mutex_);
   const ros::WallTime now = ros::WallTime::now();
@@ -97,7 +97,15 @@ std::vector<demnerf::core::Frame> FrameIntake::poll(const ros::Time&) {
       }
       it = pending_.erase(it);
     } else if ((now - it->received).toSec() > config_.tf_timeout) {
-      ++(tf_buffer_._frameExists(it->frame_id) ? counts_.tf_too_slow : counts_.tf_missing);
+      const bool known = tf_buffer_._frameExists(it->frame_id);
+      ++(known ? counts_.tf_too_slow : counts_.tf_missing);
+      if (dropped != nullptr) {
+        dropped->push_back("image dropped: " +
+                           (known ? "tf from '" + config_.world_frame + "' to '" + it->frame_id +
+                                        "' did not reach the image stamp within " + std::to_string(config_.tf_timeout) + " s"
+                                  : "no tf from '" + config_.world_frame + "' to the image frame '" + it->frame_id +
+                                        "' (is the camera's frame published?)"));
+      }
       it = pending_.erase(it);
     } else {
       ++it;

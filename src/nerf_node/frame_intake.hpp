@@ -45,7 +45,8 @@ class FrameIntake {
   /// Validates and queues one image; throws demnerf::core::Error saying why it is unusable.
   void add(const sensor_msgs::Image& image, const sensor_msgs::CameraInfo& info);
   /// Resolves queued images whose pose is now in tf; returns the new keyframes (posed, RGBA).
-  std::vector<demnerf::core::Frame> poll(const ros::Time& now);
+  /// Images dropped for lack of tf are described in `dropped` (one line each).
+  std::vector<demnerf::core::Frame> poll(std::vector<std::string>* dropped);
   FrameIntakeCounts counts() const;
   void reset();
 

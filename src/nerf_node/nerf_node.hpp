@@ -10,11 +10,14 @@
 #include <image_transport/image_transport.h>
 #include <ros/ros.h>
 #include <std_srvs/Trigger.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
 
 #include <mutex>
 #include <string>
 #include <vector>
 
+#include "nerf_node/frame_intake.hpp"
 #include "nerf_node/nerf_node_config.hpp"
 
 namespace dem_nerf {
@@ -26,6 +29,7 @@ class NerfNode {
  private:
   void onImage(const std::string& camera, const sensor_msgs::ImageConstPtr& image,
                const sensor_msgs::CameraInfoConstPtr& info);
+  void pollFrames(const ros::TimerEvent&);
   void publishStatus(const ros::TimerEvent&);
   void reportError(const std::string& message);
   void fillDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
@@ -37,17 +41,19 @@ class NerfNode {
   bool reset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response);
 
   NerfNodeConfig config_;
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_listener_;
+  FrameIntake intake_;
   image_transport::ImageTransport transport_;
   std::vector<image_transport::CameraSubscriber> camera_subscribers_;
   ros::Publisher status_publisher_, particles_publisher_, mesh_publisher_, model_publisher_;
   image_transport::Publisher preview_publisher_;
   std::vector<ros::ServiceServer> services_;
-  ros::Timer status_timer_;
+  ros::Timer status_timer_, poll_timer_;
   diagnostic_updater::Updater diagnostics_;
 
-  std::mutex mutex_;  // guards the counters and last_error_ below
-  std::size_t images_accepted_ = 0;
-  std::size_t images_rejected_ = 0;
+  std::mutex mutex_;  // guards everything below
+  std::vector<demnerf::core::Frame> keyframes_;
   std::string last_error_;
 };
 
