@@ -7,3 +7,11 @@ if(NOT TARGET render_synth_bench)
   target_link_libraries(render_synth_bench PRIVATE demnerf_render)
   set_target_properties(render_synth_bench PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin/bench")
 endif()
+
+# render_deformed_bench : the NeRF rendered deformed by a result vs `demnerf synth --result`
+#                         ground truth (PSNR, seconds per view), docs/deformed_render.png
+if(NOT TARGET render_deformed_bench)
+  add_executable(render_deformed_bench ${CMAKE_CURRENT_LIST_DIR}/render_deformed_bench.cpp)
+  target_link_libraries(render_deformed_bench PRIVATE demnerf_render)
+  set_target_properties(render_deformed_bench PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin/bench")
+endif()

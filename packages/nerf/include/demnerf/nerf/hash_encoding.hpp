@@ -1,0 +1,45 @@
+#pragma once
+// Multiresolution hash encoding (instant-ngp): per level, trilinear interpolation of feature
+// vectors stored at grid vertices, in a dense table when the level fits, else a spatial hash.
+
+#include <cstdint>
+#include <vector>
+
+#include "demnerf/nerf/config.hpp"
+
+namespace demnerf::nerf {
+
+/// Where each level lives in the flat parameter table (entries of `features` floats each).
+struct HashGridLayout {
+  int levels = 0;
+  int features = 0;
+  std::uint32_t hash_mask = 0;             ///< table size - 1 (hashed levels)
+  std::vector<int> resolution;             ///< cells per axis of each level
+  std::vector<std::int64_t> offset;        ///< first entry of each level
+  std::vector<std::int64_t> entries;       ///< entries of each level
+  std::vector<char> dense;                 ///< level indexed densely ((res+1)^3 <= table size)
+  std::int64_t total_entries = 0;
+
+  /// finest_resolution 0 means 512 * aabb_scale.
+  static HashGridLayout make(const HashGridConfig& config, double aabb_scale = 1.0);
+  int outputDims() const { return levels * features; }
+  std::int64_t parameterCount() const { return total_entries * features; }
+};
+
+// Raw float32 kernels on one thread; callers split the points between threads.
+// Positions are n x 3, in [0, 1]^3 (clamped); outputs are n x (levels * features).
+
+void hashEncodeForward(const HashGridLayout& layout, const float* table, const float* positions,
+                       std::int64_t n, float* out);
+/// Adds d(loss)/d(table) for the levels [level_begin, level_end). Levels own disjoint table
+/// ranges, so threads that take different levels never write the same entry. When
+/// `touched` is non-null, every entry written is flagged (and, when `touched_list` is
+/// non-null, appended to it the first time).
+void hashEncodeBackwardTable(const HashGridLayout& layout, const float* positions, std::int64_t n,
+                             const float* grad_out, float* grad_table, int level_begin, int level_end,
+                             std::uint8_t* touched = nullptr, std::vector<std::int64_t>* touched_list = nullptr);
+/// Writes d(loss)/d(positions) (n x 3), positions in the unit cube.
+void hashEncodeBackwardPositions(const HashGridLayout& layout, const float* table, const float* positions,
+                                 std::int64_t n, const float* grad_out, float* grad_positions);
+
+}  // namespace demnerf::nerf

@@ -1,0 +1,28 @@
+#pragma once
+// Full images of a NeRF from any pinhole camera: colour, expected depth and opacity.
+
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include "demnerf/core/camera.hpp"
+#include "demnerf/nerf/model.hpp"
+
+namespace demnerf::nerf {
+
+struct RenderedImage {
+  cv::Mat color;    ///< CV_32FC3 RGB in [0, 1], composited over the background
+  cv::Mat depth;    ///< CV_32FC1, distance along the ray (m) weighted by opacity
+  cv::Mat opacity;  ///< CV_32FC1 in [0, 1]
+  double seconds = 0;
+  std::int64_t samples = 0;
+};
+
+/// world_from_camera is the optical frame (z forward, y down). background: RGB in [0, 1].
+RenderedImage renderImage(const NerfModel& model, const core::PinholeCamera& camera,
+                          const Eigen::Isometry3d& world_from_camera, const Eigen::Vector3f& background);
+
+/// The same with the model's configured background.
+RenderedImage renderImage(const NerfModel& model, const core::PinholeCamera& camera,
+                          const Eigen::Isometry3d& world_from_camera);
+
+}  // namespace demnerf::nerf

@@ -1,0 +1,332 @@
+#include "demnerf/render/deformed_renderer.hpp"
+
+#include <ATen/Parallel.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+#include "demnerf/core/error.hpp"
+#include "demnerf/nerf/ray_marcher.hpp"
+
+namespace demnerf::render {
+namespace {
+
+std::string vec(const Eigen::Vector3d& v) {
+  std::ostringstream s;
+  s << "(" << v.x() << ", " << v.y() << ", " << v.z() << ")";
+  return s.str();
+}
+
+std::string boxText(const nerf::Box& b) {
+  return vec(Eigen::Vector3d(b.min[0], b.min[1], b.min[2])) + " .. " + vec(Eigen::Vector3d(b.max[0], b.max[1], b.max[2]));
+}
+
+/// Whether the NeRF's occupancy grid marks the cell of p or one of its 26 neighbours: surface
+/// particles sit on the boundary of the occupied cells.
+bool nearOccupied(const nerf::OccupancyGrid& grid, const Eigen::Vector3d& p) {
+  const nerf::Box& b = grid.bounds();
+  const int r = grid.resolution();
+  int c[3];
+  for (int a = 0; a < 3; ++a) {
+    const double u = (p[a] - b.min[a]) / b.size(a);
+    if (!(u >= 0 && u <= 1)) return false;
+    c[a] = std::min(static_cast<int>(u * r), r - 1);
+  }
+  for (int z = std::max(0, c[2] - 1); z <= std::min(r - 1, c[2] + 1); ++z)
+    for (int y = std::max(0, c[1] - 1); y <= std::min(r - 1, c[1] + 1); ++y)
+      for (int x = std::max(0, c[0] - 1); x <= std::min(r - 1, c[0] + 1); ++x)
+        if (grid.occupied((static_cast<std::int64_t>(z) * r + y) * r + x)) return true;
+  return false;
+}
+
+/// Checks the result against the model before any tetrahedron is built; returns it.
+const core::ResultField& checked(const nerf::NerfModel& model, const core::ResultField& result,
+                                 const DeformedRenderConfig& config) {
+  const std::size_t n = result.positions.size();
+  if (n == 0) throw core::Error("deformed render: the result has no particles (empty or unreadable result file)");
+  if (config.expected_particles && n != config.expected_particles) {
+    throw core::Error("deformed render: the result has " + std::to_string(n) + " particles but the body has " +
+                      std::to_string(config.expected_particles) + "; was it computed on another particle cloud?");
+  }
+  if (result.displacements.size() != n) {
+    throw core::Error("deformed render: the result has " + std::to_string(n) + " positions but " +
+                      std::to_string(result.displacements.size()) + " displacements");
+  }
+  const nerf::Box box = model.bounds();
+  std::size_t outside = 0, first_outside = n, occupied = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3d& p = result.positions[i];
+    if (!p.allFinite() || !result.displacements[i].allFinite()) {
+      throw core::Error("deformed render: result particle " + std::to_string(i) + " is not finite: position " +
+                        vec(p) + ", displacement " + vec(result.displacements[i]));
+    }
+    bool inside = true;
+    for (int a = 0; a < 3; ++a) {
+      const double pad = 1e-3 * box.size(a);
+      inside = inside && p[a] >= box.min[a] - pad && p[a] <= box.max[a] + pad;
+    }
+    if (!inside) {
+      if (first_outside == n) first_outside = i;
+      ++outside;
+    } else if (nearOccupied(model.grid(), p)) {
+      ++occupied;
+    }
+  }
+  if (outside > 0) {
+    throw core::Error("deformed render: " + std::to_string(outside) + " of the result's " + std::to_string(n) +
+                      " rest positions lie outside the NeRF's box " + boxText(box) + " (first: particle " +
+                      std::to_string(first_outside) + " at " + vec(result.positions[first_outside]) +
+                      "); the result belongs to another body or frame");
+  }
+  const double share = static_cast<double>(occupied) / static_cast<double>(n);
+  if (share < config.min_occupied_share) {
+    throw core::Error("deformed render: only " + std::to_string(100.0 * share) +
+                      " % of the result's rest positions lie where the NeRF has density (need " +
+                      std::to_string(100.0 * config.min_occupied_share) +
+                      " %); the result was computed on another body");
+  }
+  return result;
+}
+
+/// The scene box: the model's when the deformed body fits in it (so a zero displacement
+/// marches exactly the samples of the undeformed renderer), else grown to hold it.
+nerf::Box sceneBox(const nerf::NerfModel& model, const TetEmbedding& embedding, int& resolution) {
+  nerf::Box box = model.bounds();
+  double growth = 1.0;
+  for (int a = 0; a < 3; ++a) {
+    const double old_size = box.size(a);
+    box.min[a] = std::min(box.min[a], static_cast<float>(embedding.deformedMin()[a]));
+    box.max[a] = std::max(box.max[a], static_cast<float>(embedding.deformedMax()[a]));
+    growth = std::max(growth, box.size(a) / old_size);
+  }
+  resolution = model.grid().resolution();
+  if (growth > 1.0) {
+    resolution = std::min(256, static_cast<int>(std::ceil(resolution * growth)));
+    resolution += resolution % 2;  // the bitfield holds whole bytes
+  }
+  return box;
+}
+
+/// Rasterises the deformed tetrahedra (boxes grown by the margin) whose rest region touches a
+/// cell the NeRF occupies.
+void rasterise(const nerf::NerfModel& model, const TetEmbedding& emb, nerf::OccupancyGrid& grid) {
+  std::fill(grid.bits().begin(), grid.bits().end(), 0);
+  const nerf::OccupancyGrid& rest_grid = model.grid();
+  const int rr = rest_grid.resolution(), r = grid.resolution();
+  const nerf::Box &rb = rest_grid.bounds(), &b = grid.bounds();
+  const double margin = emb.margin();
+  auto cells = [](const nerf::Box& box, int res, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int* from,
+                  int* to) {
+    for (int a = 0; a < 3; ++a) {
+      from[a] = std::clamp(static_cast<int>(std::floor((lo[a] - box.min[a]) / box.size(a) * res)), 0, res - 1);
+      to[a] = std::clamp(static_cast<int>(std::floor((hi[a] - box.min[a]) / box.size(a) * res)), 0, res - 1);
+    }
+  };
+  for (std::size_t t = 0; t < emb.tetCount(); ++t) {
+    const auto& v = emb.tet(t);
+    Eigen::Vector3d lo = emb.restPositions()[v[0]], hi = lo;
+    Eigen::Vector3d dlo = emb.deformedPositions()[v[0]], dhi = dlo;
+    for (int k = 1; k < 4; ++k) {
+      lo = lo.cwiseMin(emb.restPositions()[v[k]]);
+      hi = hi.cwiseMax(emb.restPositions()[v[k]]);
+      dlo = dlo.cwiseMin(emb.deformedPositions()[v[k]]);
+      dhi = dhi.cwiseMax(emb.deformedPositions()[v[k]]);
+    }
+    lo.array() -= margin;
+    hi.array() += margin;
+    int from[3], to[3];
+    cells(rb, rr, lo, hi, from, to);
+    bool any = false;
+    for (int z = from[2]; z <= to[2] && !any; ++z)
+      for (int y = from[1]; y <= to[1] && !any; ++y)
+        for (int x = from[0]; x <= to[0] && !any; ++x)
+          any = rest_grid.occupied((static_cast<std::int64_t>(z) * rr + y) * rr + x);
+    if (!any) continue;
+    dlo.array() -= margin;
+    dhi.array() += margin;
+    cells(b, r, dlo, dhi, from, to);
+    for (int z = from[2]; z <= to[2]; ++z)
+      for (int y = from[1]; y <= to[1]; ++y)
+        for (int x = from[0]; x <= to[0]; ++x) {
+          const std::int64_t c = (static_cast<std::int64_t>(z) * r + y) * r + x;
+          grid.bits()[c >> 3] |= static_cast<std::uint8_t>(1u << (c & 7));
+        }
+  }
+}
+
+constexpr int kBlockRays = 64;
+
+/// One round's samples of a block of rays, and the compacted ones that fall inside the body.
+struct Round {
+  std::vector<float> world, t, dt, sigma, rgb;
+  std::vector<int> first, count;
+  std::vector<float> unit, rest, dirs;  ///< compacted inside samples
+  std::vector<int> index;               ///< compacted -> round sample
+  void reserve(int samples) {
+    world.resize(3 * samples);
+    t.resize(samples);
+    dt.resize(samples);
+    sigma.resize(samples);
+    rgb.resize(3 * samples);
+    unit.resize(3 * samples);
+    rest.resize(3 * samples);
+    dirs.resize(3 * samples);
+    index.resize(samples);
+    first.resize(kBlockRays);
+    count.resize(kBlockRays);
+  }
+};
+
+struct RayAccum {
+  float transmittance = 1.0f, color[3] = {0, 0, 0}, depth = 0.0f;
+};
+
+}  // namespace
+
+DeformedScene::DeformedScene(const nerf::NerfModel& model, const core::ResultField& result,
+                             const DeformedRenderConfig& config)
+    : model_(model), config_(config), embedding_(checked(model, result, config), config.embedding) {
+  int resolution = 0;
+  const nerf::Box box = sceneBox(model, embedding_, resolution);
+  nerf::OccupancyConfig oc = model.config().occupancy;
+  oc.resolution = resolution;
+  grid_ = nerf::OccupancyGrid(oc, box, model.march().min_step);
+  rasterise(model, embedding_, grid_);
+}
+
+nerf::RenderedImage renderDeformed(const DeformedScene& scene, const core::PinholeCamera& camera,
+                                   const Eigen::Isometry3d& world_from_camera, const Eigen::Vector3f& background) {
+  camera.validate();
+  const auto start = std::chrono::steady_clock::now();
+  const nerf::NerfModel& model = scene.model();
+  const nerf::NgpField& field = model.field();
+  const nerf::OccupancyGrid& rest_grid = model.grid();
+  const TetEmbedding& emb = scene.embedding();
+  const nerf::MarchParams& mp = model.march();
+  const nerf::MarchConfig& mc = model.config().march;
+  const bool rotate = scene.config().rotate_directions;
+  const float min_t = static_cast<float>(mc.min_transmittance);
+  const int w = camera.width, h = camera.height;
+  const std::int64_t n = static_cast<std::int64_t>(w) * h;
+  const Eigen::Matrix3d rot = world_from_camera.linear();
+  const Eigen::Vector3d origin = world_from_camera.translation();
+
+  nerf::RenderedImage image;
+  image.color.create(h, w, CV_32FC3);
+  image.depth.create(h, w, CV_32FC1);
+  image.opacity.create(h, w, CV_32FC1);
+  float* color_out = image.color.ptr<float>();
+  float* depth_out = image.depth.ptr<float>();
+  float* opacity_out = image.opacity.ptr<float>();
+  const std::int64_t blocks = (n + kBlockRays - 1) / kBlockRays;
+  std::vector<std::int64_t> block_samples(blocks, 0);
+  const int max_per_round = std::max(mc.samples_per_round, 32);
+
+  at::parallel_for(0, blocks, 1, [&](std::int64_t begin, std::int64_t end) {
+    nerf::FieldWorkspace ws;
+    Round round;
+    round.reserve(kBlockRays * max_per_round);
+    std::vector<nerf::RayCursor> cursors(kBlockRays);
+    std::vector<RayAccum> acc(kBlockRays);
+    for (std::int64_t blk = begin; blk < end; ++blk) {
+      const std::int64_t first = blk * kBlockRays;
+      const int rays = static_cast<int>(std::min<std::int64_t>(kBlockRays, n - first));
+      for (int j = 0; j < rays; ++j) {
+        // The undeformed renderer's ray set-up, so both march the same samples.
+        const std::int64_t i = first + j;
+        const int x = static_cast<int>(i % w), y = static_cast<int>(i / w);
+        Eigen::Vector3d d = camera.hasDistortion()
+                                ? camera.unproject(Eigen::Vector2d(x + 0.5, y + 0.5))
+                                : Eigen::Vector3d((x + 0.5 - camera.cx) / camera.fx, (y + 0.5 - camera.cy) / camera.fy, 1.0);
+        const Eigen::Vector3d world = (rot * d).normalized();
+        const float o[3] = {static_cast<float>(origin.x()), static_cast<float>(origin.y()), static_cast<float>(origin.z())};
+        const float dir[3] = {static_cast<float>(world.x()), static_cast<float>(world.y()), static_cast<float>(world.z())};
+        nerf::startRay(mp, scene.bounds(), o, dir, 0.5f, cursors[j]);
+        acc[j] = RayAccum();
+      }
+      int per_ray = mc.samples_per_round;
+      for (;;) {
+        int total = 0;
+        for (int j = 0; j < rays; ++j) {
+          round.first[j] = total;
+          round.count[j] = 0;
+          if (cursors[j].done) continue;
+          const int got = nerf::marchRay(mp, scene.grid(), cursors[j], per_ray, round.world.data() + 3 * total,
+                                         round.t.data() + total, round.dt.data() + total);
+          round.count[j] = got;
+          total += got;
+        }
+        if (total == 0) break;
+        block_samples[blk] += total;
+        // Map samples back to the rest body; those outside it (or where the NeRF itself is
+        // empty, as the undeformed marcher would skip them) get zero density.
+        int inside = 0;
+        for (int j = 0; j < rays; ++j) {
+          for (int s = round.first[j]; s < round.first[j] + round.count[j]; ++s) {
+            round.sigma[s] = 0.0f;
+            const RestPoint rp = emb.locate(round.world.data() + 3 * s);
+            if (rp.tet < 0) continue;
+            const std::int64_t cell = rest_grid.cellOf(rp.rest);
+            if (cell < 0 || !rest_grid.occupied(cell)) continue;
+            for (int a = 0; a < 3; ++a) round.rest[3 * inside + a] = rp.rest[a];
+            if (rotate) {
+              emb.restDirection(rp.tet, cursors[j].direction, round.dirs.data() + 3 * inside);
+            } else {
+              for (int a = 0; a < 3; ++a) round.dirs[3 * inside + a] = cursors[j].direction[a];
+            }
+            round.index[inside++] = s;
+          }
+        }
+        if (inside > 0) {
+          field.toUnit(round.rest.data(), inside, round.unit.data());
+          float sigma[nerf::NgpField::kChunk], rgb[3 * nerf::NgpField::kChunk];
+          for (int c = 0; c < inside; c += nerf::NgpField::kChunk) {
+            const int m = std::min(nerf::NgpField::kChunk, inside - c);
+            field.forwardChunk(round.unit.data() + 3 * c, round.dirs.data() + 3 * c, m, ws, sigma, rgb);
+            for (int k = 0; k < m; ++k) {
+              const int s = round.index[c + k];
+              round.sigma[s] = sigma[k];
+              for (int a = 0; a < 3; ++a) round.rgb[3 * s + a] = rgb[3 * k + a];
+            }
+          }
+        }
+        for (int j = 0; j < rays; ++j) {
+          RayAccum& a = acc[j];
+          for (int s = round.first[j]; s < round.first[j] + round.count[j]; ++s) {
+            if (round.sigma[s] <= 0.0f) continue;
+            const float alpha = 1.0f - std::exp(-round.sigma[s] * round.dt[s]);
+            const float wgt = a.transmittance * alpha;
+            for (int k = 0; k < 3; ++k) a.color[k] += wgt * round.rgb[3 * s + k];
+            a.depth += wgt * round.t[s];
+            a.transmittance *= 1.0f - alpha;
+            if (a.transmittance < min_t) {
+              cursors[j].done = true;
+              break;
+            }
+          }
+        }
+        per_ray = std::min(per_ray * 2, max_per_round);
+      }
+      for (int j = 0; j < rays; ++j) {
+        const std::int64_t r = first + j;
+        for (int k = 0; k < 3; ++k) color_out[3 * r + k] = acc[j].color[k] + acc[j].transmittance * background[k];
+        depth_out[r] = acc[j].depth;
+        opacity_out[r] = 1.0f - acc[j].transmittance;
+      }
+    }
+  });
+  for (std::int64_t s : block_samples) image.samples += s;
+  image.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return image;
+}
+
+nerf::RenderedImage renderDeformed(const DeformedScene& scene, const core::PinholeCamera& camera,
+                                   const Eigen::Isometry3d& world_from_camera) {
+  const auto& b = scene.model().config().background;
+  return renderDeformed(scene, camera, world_from_camera,
+                        Eigen::Vector3f(static_cast<float>(b[0]), static_cast<float>(b[1]), static_cast<float>(b[2])));
+}
+
+}  // namespace demnerf::render

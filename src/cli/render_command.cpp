@@ -1,0 +1,64 @@
+// `demnerf render`: images of a NeRF model from a dataset split's cameras (packages/nerf).
+
+#include <filesystem>
+#include <memory>
+#include <opencv2/core.hpp>
+
+#include "command.hpp"
+#include "demnerf/core/dataset.hpp"
+#include "demnerf/core/error.hpp"
+#include "demnerf/nerf/model_io.hpp"
+#include "demnerf/nerf/renderer.hpp"
+#include "demnerf/core/ply.hpp"
+#include "demnerf/render/deformed_renderer.hpp"
+
+namespace demnerf::cli {
+namespace {
+
+Figures runRender(const Arguments& arguments) {
+  arguments.rejectUnknown({"model", "data", "split", "out", "result", "downscale", "json", "quiet"});
+  const std::string split = arguments.text("split", "test");
+  if (split != "test" && split != "train") throw UsageError("--split must be 'test' or 'train', got '" + split + "'");
+  core::DatasetOptions options;
+  options.downscale = arguments.number("downscale", 1.0);
+  options.load_images = false;  // only the cameras are needed
+  if (options.downscale < 1.0) throw UsageError("--downscale must be >= 1");
+  const std::string out = arguments.text("out");
+  const nerf::NerfModel model = nerf::loadModel(arguments.text("model"));
+  // With --result the body is bent by the simulated displacement: each ray sample is mapped
+  // back to its rest position through a tetrahedral embedding of the result's particles.
+  std::unique_ptr<render::DeformedScene> deformed;
+  if (arguments.has("result")) {
+    deformed = std::make_unique<render::DeformedScene>(model, core::readResult(arguments.text("result")));
+  }
+  const core::Dataset dataset = core::loadDataset(arguments.text("data"), options);
+  std::error_code ec;
+  std::filesystem::create_directories(out, ec);
+  if (ec) throw core::Error("cannot create output directory '" + out + "': " + ec.message());
+  const auto& frames = dataset.split(split);
+  double seconds = 0;
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    const nerf::RenderedImage image =
+        deformed ? render::renderDeformed(*deformed, frames[i].camera, frames[i].world_from_camera)
+                 : nerf::renderImage(model, frames[i].camera, frames[i].world_from_camera);
+    seconds += image.seconds;
+    cv::Mat rgba(image.color.size(), CV_32FC4);
+    const int from_to[] = {0, 0, 1, 1, 2, 2, 3, 3};
+    const cv::Mat sources[] = {image.color, image.opacity};
+    cv::mixChannels(sources, 2, &rgba, 1, from_to, 4);
+    char name[64];
+    std::snprintf(name, sizeof(name), "r_%03zu.png", i);
+    core::writeImagePng((std::filesystem::path(out) / name).string(), rgba);
+  }
+  return Figures{{"views", frames.size()},
+                 {"seconds_per_view", frames.empty() ? 0.0 : seconds / static_cast<double>(frames.size())},
+                 {"out", out}};
+}
+
+}  // namespace
+
+const Command kRenderCommand = {
+    "render", "render a model (optionally deformed) from a split's cameras",
+    "--model MODEL --data DIR --split test --out DIR [--result R.ply] [--downscale F] [--json]", runRender};
+
+}  // namespace demnerf::cli
