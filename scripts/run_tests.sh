@@ -11,6 +11,7 @@ rm -rf "$RESULTS" && mkdir -p "$RESULTS/rostest"
 # ROS's Python tools (rostest, hztest) need Debian's python3, which a pyenv or venv may shadow.
 export PATH="/usr/bin:$PATH"
 export ROS_HOME="$ROOT/$BUILD_DIR/ros_home"
+rm -rf "$ROS_HOME" && mkdir -p "$ROS_HOME"  # no model autosaved by an earlier run is resumed
 export ROS_TEST_RESULTS_DIR="$RESULTS/rostest"
 export ROSCONSOLE_FORMAT='[${severity}] [${node}]: ${message}'
 # The ROS environment scripts read unset variables, so they are sourced without -u.
@@ -25,6 +26,12 @@ echo "== gtests"
 (cd "$BUILD_DIR" && ctest --output-on-failure --timeout 600) || status=1
 
 echo "== rostests"
+# A small synthetic scene for the tests that train (made by our own renderer, so no ../shared).
+TEST_DATA="$ROOT/$BUILD_DIR/test_data"
+if [ ! -f "$TEST_DATA/cuboid/transforms_train.json" ]; then
+  "$BUILD_DIR/bin/demnerf" synth --scene cuboid --views 24 --test-views 4 --size 64 --out "$TEST_DATA/cuboid" > /dev/null \
+    || { echo "could not generate the test scene"; status=1; }
+fi
 for launch_file in test/*.test; do
   needs_shared=$(grep -l 'shared/data' "$launch_file" || true)
   if [ -n "$needs_shared" ] && [ ! -d "$ROOT/../shared/data" ]; then
@@ -33,7 +40,9 @@ for launch_file in test/*.test; do
     continue
   fi
   echo "-- rostest $launch_file"
-  if ! rostest "$launch_file" > "$RESULTS/rostest/$(basename "$launch_file" .test).log" 2>&1; then
+  extra_args=()
+  grep -q 'name="test_data"' "$launch_file" && extra_args+=("test_data:=$TEST_DATA")
+  if ! rostest "$launch_file" "${extra_args[@]}" > "$RESULTS/rostest/$(basename "$launch_file" .test).log" 2>&1; then
     status=1
     echo "FAILED $launch_file; its output:"
     tail -40 "$RESULTS/rostest/$(basename "$launch_file" .test).log"

@@ -11,53 +11,14 @@
 #include "demnerf/geometry/mesh_from_density.hpp"
 #include "demnerf/geometry/particle_sampler.hpp"
 
-#if __has_include("demnerf/nerf/model_io.hpp")
 #include "demnerf/nerf/model_io.hpp"
-#define DEMNERF_SAMPLE_HAS_NERF 1
-#endif
+#include "pipeline/model_geometry.hpp"
 
 namespace demnerf::cli {
 namespace {
 
-#ifdef DEMNERF_SAMPLE_HAS_NERF
-// The NeRF's surface (as `demnerf extract` makes it) and its colour at each particle, seen
-// from outside along the particle's normal (interior particles: from above).
-core::TriangleMesh meshFromModel(const nerf::NerfModel& model, int resolution, double threshold) {
-  geometry::DensityGrid grid;
-  grid.dims = Eigen::Vector3i::Constant(resolution);
-  const nerf::Box box = model.bounds();
-  for (int a = 0; a < 3; ++a) {
-    grid.spacing[a] = static_cast<double>(box.size(a)) / resolution;
-    grid.origin[a] = box.min[a] + 0.5 * grid.spacing[a];
-  }
-  grid.values = model.densityGrid(resolution);
-  geometry::MeshExtractionConfig config;
-  config.threshold = threshold;
-  return geometry::extractMesh(grid, config).mesh;
-}
-
-void colourFromModel(const nerf::NerfModel& model, core::ParticleCloud* cloud) {
-  const std::size_t n = cloud->size();
-  std::vector<float> points(3 * n), directions(3 * n), sigma(n), rgb(3 * n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const Eigen::Vector3d view = cloud->isSurface(i) ? Eigen::Vector3d(-cloud->normals[i]) : Eigen::Vector3d(0, 0, -1);
-    for (int a = 0; a < 3; ++a) {
-      points[3 * i + a] = static_cast<float>(cloud->positions[i][a]);
-      directions[3 * i + a] = static_cast<float>(view[a]);
-    }
-  }
-  model.field().query(points.data(), directions.data(), static_cast<std::int64_t>(n), sigma.data(), rgb.data());
-  for (std::size_t i = 0; i < n; ++i) {
-    for (int c = 0; c < 3; ++c) {
-      const float v = std::min(1.0f, std::max(0.0f, rgb[3 * i + c]));
-      cloud->colors[i][c] = static_cast<std::uint8_t>(v * 255.0f + 0.5f);
-    }
-  }
-}
-#endif
-
 Figures runSample(const Arguments& arguments) {
-  arguments.rejectUnknown({"mesh", "model", "resolution", "threshold", "method", "spacing", "out", "seed", "weights",
+  arguments.rejectUnknown({"mesh", "model", "resolution", "surface", "opacity", "threshold", "method", "spacing", "out", "seed", "weights",
                            "surface-volumes", "json", "quiet"});
   if (arguments.has("mesh") == arguments.has("model")) throw UsageError("give either --mesh or --model");
   const std::string out_path = arguments.text("out");
@@ -84,14 +45,20 @@ Figures runSample(const Arguments& arguments) {
     mesh = core::readMesh(arguments.text("mesh"));
     cloud = geometry::sampleParticles(mesh, config, &report);
   } else {
-#ifdef DEMNERF_SAMPLE_HAS_NERF
     const nerf::NerfModel model = nerf::loadModel(arguments.text("model"));
-    mesh = meshFromModel(model, arguments.integer("resolution", 256), arguments.number("threshold", 2.5));
+    geometry::MeshExtractionConfig extraction;
+    // As `demnerf extract`: the surface as rendered (opacity 0.15) unless --threshold asks for a
+    // density iso-surface.
+    const std::string surface = arguments.text("surface", arguments.has("threshold") ? "density" : "opacity");
+    if (surface != "density" && surface != "opacity") {
+      throw UsageError("option --surface expects density or opacity, got '" + surface + "'");
+    }
+    extraction.surface = geometry::parseSurfaceDefinition(surface);
+    extraction.opacity = arguments.number("opacity", 0.15);
+    extraction.threshold = arguments.number("threshold", extraction.threshold);
+    mesh = dem_nerf::extractSurface(model, arguments.integer("resolution", 256), extraction).mesh;
     cloud = geometry::sampleParticles(mesh, config, &report);
-    colourFromModel(model, &cloud);
-#else
-    throw NotBuiltYet("demnerf sample --model needs the NeRF library (packages/nerf), which is not built yet in this build");
-#endif
+    dem_nerf::colourFromModel(model, &cloud);
   }
   core::writeParticles(out_path, cloud);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -107,7 +74,7 @@ Figures runSample(const Arguments& arguments) {
 
 const Command kSampleCommand = {
     "sample", "particles inside a closed mesh",
-    "(--mesh M.ply|M.obj | --model MODEL [--resolution 256] [--threshold 2.5]) --method random|poisson|grid "
+    "(--mesh M.ply|M.obj | --model MODEL [--resolution 256] [--surface opacity|density] [--opacity 0.15] [--threshold 2.5]) --method random|poisson|grid "
     "--spacing H --out P.ply [--seed 1] "
     "[--weights voronoi|uniform] [--surface-volumes false] [--json]",
     runSample};

@@ -190,14 +190,19 @@ Eigen::AlignedBox3d sceneBounds(const Json& top, const std::vector<Frame>& frame
     const double half = 0.5 * aabb_scale / 0.33;
     return Eigen::AlignedBox3d(Eigen::Vector3d::Constant(-half), Eigen::Vector3d::Constant(half));
   }
+  return boundsFromCameras(frames);
+}
+
+}  // namespace
+
+Eigen::AlignedBox3d boundsFromCameras(const std::vector<Frame>& frames) {
+  if (frames.empty()) throw Error("boundsFromCameras: no cameras");
   const Eigen::Vector3d centre = lookAtPoint(frames);
   double distance = 0.0;
   for (const Frame& frame : frames) distance += (frame.world_from_camera.translation() - centre).norm();
   const double half = 0.5 * distance / static_cast<double>(frames.size());
   return Eigen::AlignedBox3d(centre.array() - half, centre.array() + half);
 }
-
-}  // namespace
 
 const std::vector<Frame>& Dataset::split(const std::string& name) const {
   if (name == "train") return train;

@@ -33,14 +33,16 @@ struct Trainer::StoredFrame {
   std::shared_ptr<const std::vector<float>> directions;
 };
 
-Box datasetBox(const core::Dataset& dataset) {
+Box toBox(const Eigen::AlignedBox3d& aligned) {
   Box box;
   for (int a = 0; a < 3; ++a) {
-    box.min[a] = static_cast<float>(dataset.bounds.min()[a]);
-    box.max[a] = static_cast<float>(dataset.bounds.max()[a]);
+    box.min[a] = static_cast<float>(aligned.min()[a]);
+    box.max[a] = static_cast<float>(aligned.max()[a]);
   }
   return box;
 }
+
+Box datasetBox(const core::Dataset& dataset) { return toBox(dataset.bounds); }
 
 Trainer::Trainer(const NerfConfig& config, const Box& bounds, double aabb_scale)
     : config_(config),
@@ -48,6 +50,15 @@ Trainer::Trainer(const NerfConfig& config, const Box& bounds, double aabb_scale)
       engine_(std::make_unique<TrainEngine>(*model_)),
       rng_(config.train.seed) {
   if (config.train.threads > 0) at::set_num_threads(config.train.threads);
+  else at::set_num_threads(static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+}
+
+Trainer::Trainer(NerfModel model)
+    : config_(model.config()),
+      model_(std::make_unique<NerfModel>(std::move(model))),
+      engine_(std::make_unique<TrainEngine>(*model_)),
+      rng_(config_.train.seed) {
+  if (config_.train.threads > 0) at::set_num_threads(config_.train.threads);
   else at::set_num_threads(static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
 }
 

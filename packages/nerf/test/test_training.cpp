@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -13,6 +14,7 @@
 #include <thread>
 
 #include "demnerf/core/error.hpp"
+#include "demnerf/nerf/background_trainer.hpp"
 #include "demnerf/nerf/evaluate.hpp"
 #include "demnerf/nerf/model_io.hpp"
 #include "demnerf/nerf/renderer.hpp"
@@ -162,6 +164,41 @@ TEST_F(TinyScene, StopsOnRequestAndTakesFramesWhileTraining) {
   EXPECT_EQ(reports.back().frames, train_->size());
   EXPECT_GT(reports.back().rays_per_second, 0.0);
   EXPECT_EQ(copy.field().table().size(), trainer.model().field().table().size());
+}
+
+TEST_F(TinyScene, BackgroundTrainerAutosavesAndATrainerResumesFromTheFile) {
+  const std::string path = (std::filesystem::temp_directory_path() / "demnerf_background.nerf").string();
+  std::filesystem::remove(path);
+  auto trainer = std::make_unique<Trainer>(tinyConfig(), tinyBox(), 1.0);
+  trainer->addFrames(*train_);
+  BackgroundTrainerConfig config;
+  config.stop.iterations = 150;
+  config.autosave_seconds = 0.5;
+  config.model_path = path;
+  std::atomic<int> progress_reports{0};
+  std::atomic<bool> done{false};
+  std::string error;
+  BackgroundTrainerCallbacks callbacks;
+  callbacks.progress = [&](const TrainProgress&) { ++progress_reports; };
+  callbacks.done = [&](const NerfModel&, const TrainProgress& p) { done = p.iteration >= 150; };
+  callbacks.error = [&](const std::string& message) { error = message; };
+  {
+    BackgroundTrainer background(std::move(trainer), config, callbacks);
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (background.running() && std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    EXPECT_FALSE(background.running());
+  }
+  EXPECT_TRUE(done) << error;
+  EXPECT_TRUE(error.empty()) << error;
+  ASSERT_TRUE(std::filesystem::exists(path));
+  Trainer resumed(loadModel(path));
+  resumed.addFrames(*train_);
+  const double before = evaluate(resumed.model(), *test_, false).psnr;
+  EXPECT_GT(before, 18.0);  // the saved weights, not a fresh model
+  resumed.step(30);
+  EXPECT_GT(evaluate(resumed.model(), *test_, false).psnr, before - 1.0);
 }
 
 TEST_F(TinyScene, ModelFileRoundTripRendersIdentically) {

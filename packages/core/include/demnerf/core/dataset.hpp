@@ -44,6 +44,10 @@ struct Dataset {
 /// Throws core::Error naming the file, key and value that are wrong.
 Dataset loadDataset(const std::string& directory, const DatasetOptions& options = {});
 
+/// A scene box from the cameras alone: centred where their optical axes meet (least squares),
+/// half the mean camera distance on each side. For rigs whose cameras surround the object.
+Eigen::AlignedBox3d boundsFromCameras(const std::vector<Frame>& frames);
+
 /// Writes a transforms file (OpenGL poses, per-frame intrinsics when cameras differ) whose
 /// file_path entries are kept as given; the images themselves are written by the caller.
 void writeTransforms(const std::string& path, const std::vector<Frame>& frames,

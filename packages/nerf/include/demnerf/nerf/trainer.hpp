@@ -40,10 +40,13 @@ struct StopCriteria {
 
 /// Scene box (and aabb_scale) of a dataset as the field wants it.
 Box datasetBox(const core::Dataset& dataset);
+Box toBox(const Eigen::AlignedBox3d& box);
 
 class Trainer {
  public:
   Trainer(const NerfConfig& config, const Box& bounds, double aabb_scale);
+  /// Continues training a saved model (weights and occupancy kept; Adam's moments start fresh).
+  explicit Trainer(NerfModel model);
   ~Trainer();
 
   /// Thread-safe; the frame joins the batches from the next iteration on. The image must be

@@ -1,4 +1,4 @@
-#include "dataset_player/dataset_player.hpp"
+#include "nodes/player/dataset_player.hpp"
 
 #include <cmath>
 

@@ -15,7 +15,7 @@
 #include <optional>
 #include <string>
 
-#include "dem_node/dem_node_config.hpp"
+#include "nodes/dem/dem_node_config.hpp"
 #include "demnerf/core/ply.hpp"
 #include "demnerf/core/scenario.hpp"
 

@@ -1,6 +1,6 @@
 #include <ros/ros.h>
 
-#include "dem_node/dem_node.hpp"
+#include "nodes/dem/dem_node.hpp"
 
 int main(int argc, char** argv) {
   ros::init(argc, argv, "dem_node");

@@ -1,4 +1,4 @@
-#include "dem_node/dem_node_config.hpp"
+#include "nodes/dem/dem_node_config.hpp"
 
 #include "ros_params/parameters.hpp"
 

@@ -1,4 +1,6 @@
-#include "nerf_node/nerf_node_config.hpp"
+#include "nodes/nerf/nerf_node_config.hpp"
+
+#include <cstdlib>
 
 #include "ros_params/parameters.hpp"
 
@@ -27,6 +29,21 @@ NerfNodeConfig NerfNodeConfig::fromParameters(const ros::NodeHandle& node) {
   readNumber(node, "autosave_seconds", config.autosave_seconds, 0.0);
   node.param("model_path", config.model_path, config.model_path);
   readCount(node, "threads", config.threads, 0);
+  node.param("nerf_config", config.nerf_config, config.nerf_config);
+  readCount(node, "extract_resolution", config.extract_resolution, 16);
+  readNumber(node, "density_threshold", config.density_threshold, 0.0);
+  node.param("sampler", config.sampler, config.sampler);
+  if (config.sampler != "random" && config.sampler != "poisson" && config.sampler != "grid") {
+    throw demnerf::core::Error("parameter ~sampler must be random, poisson or grid, got '" + config.sampler + "'");
+  }
+  readNumber(node, "particle_spacing", config.particle_spacing, 0.0);
+  if (config.model_path.empty()) {
+    // Autosave somewhere even when nobody chose a path: a restart should not lose the training.
+    const char* ros_home = std::getenv("ROS_HOME");
+    const char* home = std::getenv("HOME");
+    config.model_path = std::string(ros_home ? ros_home : std::string(home ? home : "/tmp") + "/.ros") +
+                        "/dem_nerf_model.nerf";
+  }
   if (config.min_frames > config.max_frames) {
     throw demnerf::core::Error("parameter ~min_frames must not exceed ~max_frames");
   }

@@ -1,6 +1,6 @@
 #include <ros/ros.h>
 
-#include "nerf_node/nerf_node.hpp"
+#include "nodes/nerf/nerf_node.hpp"
 
 int main(int argc, char** argv) {
   ros::init(argc, argv, "nerf_node");

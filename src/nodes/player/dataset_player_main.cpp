@@ -1,6 +1,6 @@
 #include <ros/ros.h>
 
-#include "dataset_player/dataset_player.hpp"
+#include "nodes/player/dataset_player.hpp"
 
 int main(int argc, char** argv) {
   ros::init(argc, argv, "dataset_player");

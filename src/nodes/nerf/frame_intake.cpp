@@ -1,4 +1,4 @@
-#include "nerf_node/frame_intake.hpp"
+#include "nodes/nerf/frame_intake.hpp"
 
 #include <cv_bridge/cv_bridge.h>
 #include <sensor_msgs/image_encodings.h>

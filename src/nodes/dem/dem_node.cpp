@@ -1,4 +1,4 @@
-#include "dem_node/dem_node.hpp"
+#include "nodes/dem/dem_node.hpp"
 
 #include <dem_nerf/TrainingStatus.h>
 #include <visualization_msgs/MarkerArray.h>

@@ -24,7 +24,12 @@ struct NerfNodeConfig {
   int max_iterations = 0;             ///< stop after this many steps (0: no limit)
   double autosave_seconds = 30.0;     ///< save the model this often while training (0: never)
   std::string model_path;             ///< where the model is saved; resumed from on start if it exists
+  std::string nerf_config;            ///< nerf.yaml with the field and training settings (empty: defaults)
   int threads = 0;                    ///< torch threads (0: all cores)
+  int extract_resolution = 128;       ///< density grid for the mesh and particles
+  double density_threshold = 2.5;     ///< iso-level of the surface (instant-ngp's default)
+  std::string sampler = "poisson";    ///< random | poisson | grid, for ~particles
+  double particle_spacing = 0.0;      ///< m; 0: 1/40 of the mesh's bounding-box diagonal
 
   /// Throws demnerf::core::Error naming the first bad parameter.
   static NerfNodeConfig fromParameters(const ros::NodeHandle& private_node);

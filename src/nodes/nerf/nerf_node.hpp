@@ -1,0 +1,79 @@
+#pragma once
+// nerf_node: collects posed keyframes from the rig's cameras, trains the NeRF on them in a
+// worker thread, and publishes what the simulation needs (particles, mesh, model). All
+// algorithms live in packages/; this class only wires them to ROS.
+
+#include <dem_nerf/ExtractParticles.h>
+#include <dem_nerf/LoadModel.h>
+#include <dem_nerf/RenderView.h>
+#include <dem_nerf/SaveModel.h>
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <image_transport/image_transport.h>
+#include <ros/ros.h>
+#include <std_srvs/Trigger.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "demnerf/nerf/background_trainer.hpp"
+#include "demnerf/nerf/config.hpp"
+#include "nodes/nerf/frame_intake.hpp"
+#include "nodes/nerf/nerf_node_config.hpp"
+
+namespace dem_nerf {
+
+class NerfNode {
+ public:
+  NerfNode(ros::NodeHandle node, ros::NodeHandle private_node, const NerfNodeConfig& config);
+  /// Stops training; the background trainer saves the model one last time.
+  ~NerfNode();
+
+ private:
+  void onImage(const std::string& camera, const sensor_msgs::ImageConstPtr& image,
+               const sensor_msgs::CameraInfoConstPtr& info);
+  void pollFrames(const ros::TimerEvent&);
+  void startTraining();  // with mutex_ held
+  void onTrained(const demnerf::nerf::NerfModel& model, const demnerf::nerf::TrainProgress& progress);
+  void publishModel(std::shared_ptr<const demnerf::nerf::NerfModel> model, std::uint32_t iteration, float psnr);
+  void publishStatus(const ros::TimerEvent&);
+  void publishPreview();
+  void reportError(const std::string& message);
+  void fillDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
+  /// The trained model, or a snapshot of the one in training; null before training starts.
+  std::shared_ptr<const demnerf::nerf::NerfModel> currentModel();
+
+  bool render(dem_nerf::RenderView::Request& request, dem_nerf::RenderView::Response& response);
+  bool extract(dem_nerf::ExtractParticles::Request& request, dem_nerf::ExtractParticles::Response& response);
+  bool save(dem_nerf::SaveModel::Request& request, dem_nerf::SaveModel::Response& response);
+  bool load(dem_nerf::LoadModel::Request& request, dem_nerf::LoadModel::Response& response);
+  bool reset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response);
+
+  NerfNodeConfig config_;
+  demnerf::nerf::NerfConfig nerf_config_;
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_listener_;
+  FrameIntake intake_;
+  image_transport::ImageTransport transport_;
+  std::vector<image_transport::CameraSubscriber> camera_subscribers_;
+  ros::Publisher status_publisher_, particles_publisher_, mesh_publisher_, model_publisher_;
+  image_transport::Publisher preview_publisher_;
+  std::vector<ros::ServiceServer> services_;
+  ros::Timer status_timer_, poll_timer_;
+  diagnostic_updater::Updater diagnostics_;
+
+  std::mutex mutex_;  // guards everything below
+  std::vector<demnerf::core::Frame> keyframes_;
+  std::unique_ptr<demnerf::nerf::BackgroundTrainer> background_;
+  std::unique_ptr<demnerf::nerf::NerfModel> resume_from_;  ///< a saved model training continues from
+  std::shared_ptr<const demnerf::nerf::NerfModel> trained_;
+  demnerf::nerf::TrainProgress progress_;
+  std::string stage_ = "waiting_for_frames";
+  std::string last_error_;
+  ros::WallTime last_preview_;
+};
+
+}  // namespace dem_nerf

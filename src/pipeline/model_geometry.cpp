@@ -1,0 +1,43 @@
+#include "pipeline/model_geometry.hpp"
+
+#include <algorithm>
+
+namespace dem_nerf {
+
+demnerf::geometry::DensityGrid densityGridOf(const demnerf::nerf::NerfModel& model, int resolution) {
+  demnerf::geometry::DensityGrid grid;
+  grid.dims = Eigen::Vector3i::Constant(resolution);
+  const demnerf::nerf::Box box = model.bounds();
+  for (int a = 0; a < 3; ++a) {
+    grid.spacing[a] = static_cast<double>(box.size(a)) / resolution;
+    grid.origin[a] = box.min[a] + 0.5 * grid.spacing[a];
+  }
+  grid.values = model.densityGrid(resolution);  // cell centres, x fastest
+  return grid;
+}
+
+demnerf::geometry::MeshExtractionResult extractSurface(const demnerf::nerf::NerfModel& model, int resolution,
+                                                       const demnerf::geometry::MeshExtractionConfig& config) {
+  return demnerf::geometry::extractMesh(densityGridOf(model, resolution), config);
+}
+
+void colourFromModel(const demnerf::nerf::NerfModel& model, demnerf::core::ParticleCloud* cloud) {
+  const std::size_t n = cloud->size();
+  std::vector<float> points(3 * n), directions(3 * n), sigma(n), rgb(3 * n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3d view = cloud->isSurface(i) ? Eigen::Vector3d(-cloud->normals[i]) : Eigen::Vector3d(0, 0, -1);
+    for (int a = 0; a < 3; ++a) {
+      points[3 * i + a] = static_cast<float>(cloud->positions[i][a]);
+      directions[3 * i + a] = static_cast<float>(view[a]);
+    }
+  }
+  model.field().query(points.data(), directions.data(), static_cast<std::int64_t>(n), sigma.data(), rgb.data());
+  for (std::size_t i = 0; i < n; ++i) {
+    for (int c = 0; c < 3; ++c) {
+      const float v = std::clamp(rgb[3 * i + c], 0.0f, 1.0f);
+      cloud->colors[i][c] = static_cast<std::uint8_t>(v * 255.0f + 0.5f);
+    }
+  }
+}
+
+}  // namespace dem_nerf
