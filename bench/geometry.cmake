@@ -12,3 +12,31 @@ foreach(tool geometry_sampling_bench geometry_samplers_figure)
                                              DEMNERF_SOURCE_DIR="${DEMNERF_ROOT_DIR}")
   set_target_properties(${tool} PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin")
 endforeach()
+
+# geometry_tbar_extraction: trains (or loads) a NeRF of the synthetic T-bar and measures the
+# extracted mesh against the exact one. It needs demnerf_nerf and demnerf_render, which
+# demnerf_geometry does not depend on (render already depends on nerf; geometry stays torch-free).
+# In the root build nerf and render are added after geometry, so the target is declared at the
+# end of the top-level directory; standalone, the two packages are pulled in here.
+if(NOT COMMAND demnerf_geometry_tbar_bench)
+  function(demnerf_geometry_tbar_bench)
+    if(TARGET geometry_tbar_extraction OR NOT TARGET demnerf_render)
+      return()
+    endif()
+    # Torch's and OpenMP's imported targets are directory-scoped: find them where the bench is.
+    find_package(Torch REQUIRED)
+    find_package(OpenMP REQUIRED)
+    add_executable(geometry_tbar_extraction ${DEMNERF_ROOT_DIR}/bench/geometry_tbar_extraction.cpp)
+    target_link_libraries(geometry_tbar_extraction PRIVATE demnerf_geometry demnerf_render demnerf_nerf
+                                                           nlohmann_json::nlohmann_json)
+    set_target_properties(geometry_tbar_extraction PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin")
+  endfunction()
+endif()
+if(CMAKE_SOURCE_DIR STREQUAL DEMNERF_ROOT_DIR)
+  cmake_language(DEFER DIRECTORY ${CMAKE_SOURCE_DIR} CALL demnerf_geometry_tbar_bench)
+else()
+  if(NOT TARGET demnerf_render AND EXISTS ${DEMNERF_ROOT_DIR}/packages/render/CMakeLists.txt)
+    add_subdirectory(${DEMNERF_ROOT_DIR}/packages/render ${CMAKE_BINARY_DIR}/render)
+  endif()
+  demnerf_geometry_tbar_bench()
+endif()

@@ -88,20 +88,24 @@ TEST(NodeInterfaces, BadImagesAreReportedAndTheNodeKeepsAnswering) {
   ros::Publisher images = node.advertise<sensor_msgs::Image>("/camera/image_raw", 1, true);
   ros::Publisher infos = node.advertise<sensor_msgs::CameraInfo>("/camera/camera_info", 1, true);
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(10);
-  while (images.getNumSubscribers() == 0 && ros::WallTime::now() < deadline) ros::WallDuration(0.05).sleep();
-
-  publishCameraPair(images, infos, "32FC1", 8, 8);
-  EXPECT_TRUE(status.waitForError("encoding '32FC1' is not supported", 10));
+  while ((images.getNumSubscribers() == 0 || infos.getNumSubscribers() == 0) && ros::WallTime::now() < deadline) {
+    ros::WallDuration(0.05).sleep();
+  }
+  // The image and its camera_info meet in the node's synchroniser; a pair sent while the
+  // connections settle can be lost, so each case is sent again until the node answers.
+  auto sendUntilReported = [&](const std::string& encoding, int info_width, const std::string& expected) {
+    for (int attempt = 0; attempt < 10; ++attempt) {
+      publishCameraPair(images, infos, encoding, 8, info_width);
+      if (status.waitForError(expected, 1.5)) return true;
+    }
+    return false;
+  };
+  EXPECT_TRUE(sendUntilReported("32FC1", 8, "encoding '32FC1' is not supported"));
   EXPECT_TRUE(nerfNodeAnswers());
-
-  ros::WallDuration(0.1).sleep();
-  publishCameraPair(images, infos, "rgba8", 8, 16);
-  EXPECT_TRUE(status.waitForError("camera_info says 16x4", 10));
+  EXPECT_TRUE(sendUntilReported("rgba8", 16, "camera_info says 16x4"));
   EXPECT_TRUE(nerfNodeAnswers());
-
-  ros::WallDuration(0.1).sleep();
-  publishCameraPair(images, infos, "rgba8", 8, 8);  // a good image whose frame has no tf
-  EXPECT_TRUE(status.waitForError("no tf from 'world' to the image frame 'camera_optical'", 10));
+  // A good image whose frame has no tf.
+  EXPECT_TRUE(sendUntilReported("rgba8", 8, "no tf from 'world' to the image frame 'camera_optical'"));
   EXPECT_TRUE(nerfNodeAnswers());
 }
 

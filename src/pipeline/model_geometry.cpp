@@ -2,18 +2,17 @@
 
 #include <algorithm>
 
+#include "demnerf/geometry/density_sampling.hpp"
+
 namespace dem_nerf {
 
 demnerf::geometry::DensityGrid densityGridOf(const demnerf::nerf::NerfModel& model, int resolution) {
-  demnerf::geometry::DensityGrid grid;
-  grid.dims = Eigen::Vector3i::Constant(resolution);
   const demnerf::nerf::Box box = model.bounds();
-  for (int a = 0; a < 3; ++a) {
-    grid.spacing[a] = static_cast<double>(box.size(a)) / resolution;
-    grid.origin[a] = box.min[a] + 0.5 * grid.spacing[a];
-  }
-  grid.values = model.densityGrid(resolution);  // cell centres, x fastest
-  return grid;
+  const Eigen::AlignedBox3d aabb(Eigen::Vector3d(box.min[0], box.min[1], box.min[2]),
+                                 Eigen::Vector3d(box.max[0], box.max[1], box.max[2]));
+  return demnerf::geometry::sampleDensityGrid(
+      [&model](const float* points, std::int64_t n, float* sigma) { model.field().density(points, n, sigma); }, aabb,
+      resolution);
 }
 
 demnerf::geometry::MeshExtractionResult extractSurface(const demnerf::nerf::NerfModel& model, int resolution,

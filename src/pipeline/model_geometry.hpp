@@ -4,14 +4,17 @@
 
 #include "demnerf/core/ply.hpp"
 #include "demnerf/geometry/mesh_from_density.hpp"
+
+/// The surface the pipeline extracts unless told otherwise: where the body reaches opacity 0.15
+/// seen from outside, on 192 cubic cells along the longest side (the T-bar: ~1 % volume error).
 #include "demnerf/nerf/model.hpp"
 
 namespace dem_nerf {
 
-/// The model's density at the cell centres of a resolution^3 lattice over its scene box.
+/// The model's density on cubic cells over its scene box, `resolution` along the longest side.
 demnerf::geometry::DensityGrid densityGridOf(const demnerf::nerf::NerfModel& model, int resolution);
 
-/// The closed surface where the density crosses config.threshold (largest component, repaired).
+/// The closed surface of the model (config says which: density level or opacity from outside).
 demnerf::geometry::MeshExtractionResult extractSurface(const demnerf::nerf::NerfModel& model, int resolution,
                                                        const demnerf::geometry::MeshExtractionConfig& config);
 

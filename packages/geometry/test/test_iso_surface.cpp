@@ -34,7 +34,9 @@ TEST(IsoSurface, SphereDensityGivesTheSphereVolume) {
   const double radius = 0.8;
   const auto grid = sampleDensity([&](const Eigen::Vector3d& p) { return sphereDensity(p, Eigen::Vector3d::Zero(), radius); },
                                   Eigen::Vector3d::Constant(-1.0), 2.0 / 47, 48);
-  const MeshExtractionResult result = extractMesh(grid);  // threshold 2.5: the surface at r = R
+  MeshExtractionConfig config;  // the default: density threshold 2.5, the surface at r = R
+  ASSERT_EQ(config.surface, SurfaceDefinition::kDensity);
+  const MeshExtractionResult result = extractMesh(grid, config);
   EXPECT_TRUE(result.closed);
   EXPECT_EQ(result.repair.components_removed, 0u);
   EXPECT_FALSE(result.repair.flipped);  // already outward

@@ -40,4 +40,16 @@ core::ParticleCloud makeBoxParticles(const Eigen::Vector3d& lower, const Eigen::
   return cloud;
 }
 
+core::TriangleMesh boxSurface(const Eigen::Vector3d& lower, const Eigen::Vector3d& upper) {
+  core::TriangleMesh m;
+  for (int k = 0; k < 8; ++k)
+    m.vertices.emplace_back(k & 1 ? upper.x() : lower.x(), k & 2 ? upper.y() : lower.y(), k & 4 ? upper.z() : lower.z());
+  const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+  for (const auto& q : quads) {
+    m.faces.push_back({q[0], q[1], q[2]});
+    m.faces.push_back({q[0], q[2], q[3]});
+  }
+  return m;
+}
+
 }  // namespace demnerf::mechanics

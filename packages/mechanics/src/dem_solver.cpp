@@ -3,7 +3,12 @@
 
 #include <torch/torch.h>
 
+#include <dlfcn.h>
+#include <malloc.h>
+
+#include <algorithm>
 #include <chrono>
+#include <limits>
 #include <cmath>
 #include <iostream>
 #include <sstream>
@@ -41,6 +46,26 @@ Tensor toTensor(const std::vector<double>& v, torch::Dtype dtype) {
   return torch::from_blob(copy.data(), {static_cast<long>(v.size())}, torch::kFloat64).clone().to(dtype);
 }
 
+// Torch's CPU matmuls go to the system BLAS (OpenBLAS on Debian), whose own thread pool ignores
+// at::set_num_threads; its spinning workers made a T-bar step 1.8x slower on a loaded 2-core
+// machine. Set it through dlsym so a build against another BLAS still links.
+void setBlasThreads(int threads) {
+  using SetThreads = void (*)(int);
+  if (auto f = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) f(threads);
+}
+
+// Every Adam step allocates and frees the same few-MB activation tensors; glibc serves blocks
+// above its mmap threshold with fresh zeroed pages each time (page faults were ~15 % of a step).
+// Keeping them in the heap halves the step time at T-bar sizes. Process-wide, set once.
+void keepLargeAllocationsInHeap() {
+  static const bool done = [] {
+    mallopt(M_MMAP_THRESHOLD, 512 * 1024 * 1024);
+    mallopt(M_TRIM_THRESHOLD, 1024 * 1024 * 1024);
+    return true;
+  }();
+  (void)done;
+}
+
 Tensor det3(const Tensor& F) {
   auto f = [&](int i, int j) { return F.select(1, i).select(1, j); };
   return f(0, 0) * (f(1, 1) * f(2, 2) - f(1, 2) * f(2, 1)) - f(0, 1) * (f(1, 0) * f(2, 2) - f(1, 2) * f(2, 0)) +
@@ -60,14 +85,18 @@ struct DemSolver::Impl {
   std::vector<Tensor> weights, biases;
   Tensor inv_half;  // 1 / half extent, (3)
   // Particle subsets: volume particles (energy, body force), surface particles (traction) and,
-  // in penalty mode, constrained particles.
+  // in penalty mode, constrained particles. The volume particles are ordered fixed-first: the last
+  // n_band of them lie near a fixture and are jittered during Adam.
   Tensor xv, vol, body, lift_v[4];
-  std::vector<Eigen::Vector3d> xv_points;  // the volume subset, for jittered quadrature
-  std::vector<double> xv_jitter;           // half cell size of each (0: surface, not jittered)
+  long n_band = 0;
+  std::vector<Eigen::Vector3d> band_points;  // nominal positions of the band particles
+  std::vector<double> band_jitter;           // half cell size of each (0: not jittered)
   mutable std::mt19937 rng{1};
   Tensor xs, traction_area, lift_s[4];
   Tensor xc, fixed_value, fixed_mask;
+  Tensor eye3, center_t;
   double fraction = 0.0;  // load fraction the network currently represents
+  bool rescaled = false;  // the output amplitude was fitted (first solve only)
   std::vector<Eigen::Vector3d> last_good_positions;
 
   std::vector<Tensor> parameters() const {
@@ -80,7 +109,7 @@ struct DemSolver::Impl {
   }
 
   Tensor normalise(const Tensor& x) const {
-    return (x - toTensor(std::vector<Eigen::Vector3d>{center}, dtype)) * inv_half;
+    return (x - center_t) * inv_half;
   }
 
   Tensor activate(const Tensor& a) const {
@@ -141,26 +170,46 @@ struct DemSolver::Impl {
     Tensor x = xv;
     Tensor lift_j[4];
     const Tensor* lift = lift_v;
-    if (jitter) {
-      // Stochastic quadrature: every Adam step moves each interior quadrature point within its
-      // cell, so the network cannot hide strain between fixed sample points (a displacement
-      // ramp in the gap next to a fixture would otherwise harvest traction work for free).
-      std::uniform_real_distribution<double> u01(-1.0, 1.0);
-      std::vector<Eigen::Vector3d> pts = xv_points;
-      for (std::size_t i = 0; i < pts.size(); ++i)
-        if (xv_jitter[i] > 0) pts[i] += xv_jitter[i] * Eigen::Vector3d(u01(rng), u01(rng), u01(rng));
-      x = toTensor(pts, dtype);
+    if (jitter && n_band > 0) {
+      // Stochastic quadrature in the band next to the fixtures: every Adam step moves each of
+      // those quadrature points within its cell (see DemConfig::jitter). The lift of the moved
+      // points is analytic and costs ~0.1 us per point.
+      const long nb = n_band, nf = xv.size(0) - nb;
+      std::uniform_real_distribution<float> u01(-1.0f, 1.0f);
+      Tensor xb = torch::empty({nb, 3}, torch::kFloat64);
+      Tensor lb[4] = {torch::empty({nb, 3}, torch::kFloat64), torch::empty({nb, 3, 3}, torch::kFloat64),
+                      torch::empty({nb, 3}, torch::kFloat64), torch::empty({nb, 3, 3}, torch::kFloat64)};
+      double* px = xb.data_ptr<double>();
+      double* pg = lb[0].data_ptr<double>();
+      double* pgg = lb[1].data_ptr<double>();
+      double* pd = lb[2].data_ptr<double>();
+      double* pgd = lb[3].data_ptr<double>();
+      Eigen::Vector3d g, D;
+      Eigen::Matrix3d gg, gD;
+      for (long i = 0; i < nb; ++i) {
+        Eigen::Vector3d p = band_points[i];
+        if (band_jitter[i] > 0) p += band_jitter[i] * Eigen::Vector3d(u01(rng), u01(rng), u01(rng));
+        for (int c = 0; c < 3; ++c) px[3 * i + c] = p(c);
+        if (config.boundary == DemConfig::Boundary::kExact) {
+          dirichletLiftAt(scenario, p, length, g, gg, D, gD);
+          for (int r = 0; r < 3; ++r) {
+            pg[3 * i + r] = g(r);
+            pd[3 * i + r] = D(r);
+            for (int c = 0; c < 3; ++c) {
+              pgg[9 * i + 3 * r + c] = gg(r, c);
+              pgd[9 * i + 3 * r + c] = gD(r, c);
+            }
+          }
+        }
+      }
+      x = torch::cat({xv.narrow(0, 0, nf), xb.to(dtype)});
       if (config.boundary == DemConfig::Boundary::kExact) {
-        const DirichletLift l = dirichletLift(scenario, pts, length);
-        lift_j[0] = toTensor(l.g, dtype);
-        lift_j[1] = toTensor(l.grad_g, dtype);
-        lift_j[2] = toTensor(l.D, dtype);
-        lift_j[3] = toTensor(l.grad_D, dtype);
+        for (int k = 0; k < 4; ++k) lift_j[k] = torch::cat({lift_v[k].narrow(0, 0, nf), lb[k].to(dtype)});
         lift = lift_j;
       }
     }
     auto [uv, gu] = displacement(x, lift, true, scale);
-    const Tensor F = gu + torch::eye(3, torch::TensorOptions().dtype(dtype)).unsqueeze(0);
+    const Tensor F = gu + eye3;
     Tensor J;
     const Tensor psi = strainEnergy(F, J);
     Tensor pi = (psi * vol).sum() - scale * (body * uv).sum();
@@ -190,26 +239,85 @@ struct DemSolver::Impl {
     for (std::size_t i = 0; i < p.size(); ++i) p[i].copy_(s[i]);
   }
 
+  // Energy (J) at the particles' nominal positions with the output amplitude multiplied by alpha;
+  // NaN when a particle inverts.
+  double energyWithAmplitude(double scale, double alpha) {
+    torch::NoGradGuard guard;
+    const double saved = out_scale;
+    out_scale = saved * alpha;
+    double e = 0, jmin = 0;
+    const Tensor l = loss(scale, &e, &jmin);
+    out_scale = saved;
+    const double total = l.item<double>() * energy_scale;
+    return std::isfinite(total) && jmin > 0 ? total : std::numeric_limits<double>::quiet_NaN();
+  }
+
+  // 1-D line search on the amplitude of the network's output: a parabola through alpha = 0, 1, 2
+  // (or 0, 0.5, 1 when 2 inverts particles). Sets out_scale to the minimiser, clamped to [0.1, 10]
+  // per call, so a badly guessed displacement scale is corrected in a few calls.
+  void rescaleOutput(double scale) {
+    const double p0 = energyWithAmplitude(scale, 0.0), p1 = energyWithAmplitude(scale, 1.0);
+    double h = 1.0, p2 = energyWithAmplitude(scale, 2.0);
+    if (!std::isfinite(p2)) {
+      h = 0.5;
+      p2 = p1;
+      const double ph = energyWithAmplitude(scale, 0.5);
+      // Points 0, h, 2h = 0, 0.5, 1.
+      const double a = (p2 - 2 * ph + p0) / (2 * h * h), b = (ph - p0) / h - a * h;
+      if (!(a > 0) || !std::isfinite(ph)) return;
+      apply(-b / (2 * a));
+      return;
+    }
+    if (!std::isfinite(p0) || !std::isfinite(p1)) return;
+    const double a = (p2 - 2 * p1 + p0) / 2, b = p1 - p0 - a;
+    apply(a > 0 ? -b / (2 * a) : 10.0);
+  }
+  void apply(double alpha) {
+    if (!std::isfinite(alpha) || alpha <= 0) return;
+    alpha = std::clamp(alpha, 0.1, 10.0);
+    out_scale *= alpha;
+    energy_scale *= alpha * alpha;
+    if (config.verbose) std::cerr << "dem: output amplitude x" << alpha << " -> " << out_scale << " m\n";
+  }
+
+  double maxDisplacement(double scale) const {
+    torch::NoGradGuard guard;
+    auto [u, unused] = displacement(xv, lift_v, false, scale);
+    return u.norm(2, 1).max().item<double>();
+  }
+
   // Trains at one load fraction; false when the loss turns NaN or a particle inverts.
-  bool train(double scale, int& iterations) {
+  bool train(double scale, int& iterations, DemReport& report) {
     auto params = parameters();
     double e = 0, jmin = 0;
     if (config.adam_iterations > 0) {
       torch::optim::Adam adam(params, torch::optim::AdamOptions(config.adam_learning_rate));
-      for (int it = 0; it < config.adam_iterations; ++it) {
+      const int n = config.adam_iterations;
+      const double decay = std::pow(std::max(config.adam_final_rate_ratio, 1e-6), 1.0 / std::max(1, n - 1));
+      double lr = config.adam_learning_rate;
+      for (int it = 0; it < n; ++it) {
+        if (!rescaled && config.rescale_every > 0 && it > 0 && it % config.rescale_every == 0 &&
+            it <= config.rescale_until && config.boundary == DemConfig::Boundary::kExact)
+          rescaleOutput(scale);
         adam.zero_grad();
         Tensor l = loss(scale, nullptr, &jmin, config.jitter);
         if (!std::isfinite(l.item<double>()) || !(jmin > 0)) return false;
         l.backward();
         adam.step();
-        // Step decay: the last third of the iterations refines with a 10x smaller rate.
-        if (it == 2 * config.adam_iterations / 3)
-          for (auto& group : adam.param_groups())
-            static_cast<torch::optim::AdamOptions&>(group.options()).lr(config.adam_learning_rate * 0.1);
+        lr *= decay;
+        for (auto& group : adam.param_groups()) static_cast<torch::optim::AdamOptions&>(group.options()).lr(lr);
         ++iterations;
       }
+      rescaled = true;
     }
     if (config.lbfgs_iterations > 0) {
+      const auto before = snapshot();
+      double e_before = 0;
+      {
+        torch::NoGradGuard guard;
+        loss(scale, &e_before, nullptr);
+      }
+      const double u_before = maxDisplacement(scale);
       torch::optim::LBFGS lbfgs(params, torch::optim::LBFGSOptions(1.0)
                                             .max_iter(config.lbfgs_iterations)
                                             .max_eval(config.lbfgs_iterations * 5 / 4)
@@ -217,22 +325,39 @@ struct DemSolver::Impl {
                                             .tolerance_grad(1e-12)
                                             .tolerance_change(config.tolerance)
                                             .line_search_fn("strong_wolfe"));
-      bool bad = false;
       auto closure = [&]() -> Tensor {
         lbfgs.zero_grad();
-        Tensor l = loss(scale, nullptr, nullptr);
+        double jm = 0;
+        Tensor l = loss(scale, nullptr, &jm);
         ++iterations;
-        if (!std::isfinite(l.item<double>())) {
+        if (!std::isfinite(l.item<double>()) || !(jm > 0)) {
           // Tell the line search this point is unacceptable without poisoning its history.
-          bad = true;
           return torch::full({}, 1e30, torch::TensorOptions().dtype(dtype));
         }
         l.backward();
         return l;
       };
       lbfgs.step(closure);
-      (void)bad;
+      double e_after = 0, jm = 0;
+      {
+        torch::NoGradGuard guard;
+        loss(scale, &e_after, &jm);
+      }
+      const double u_after = maxDisplacement(scale);
+      const bool exploit = !std::isfinite(e_after) || !(jm > 0) ||
+                           e_after < e_before - config.polish_max_energy_drop * std::abs(e_before) ||
+                           u_after > config.polish_max_growth * u_before || u_after > length;
+      if (exploit) {
+        if (config.verbose)
+          std::cerr << "dem: L-BFGS polish rejected (energy " << e_before << " -> " << e_after << ", max |u| "
+                    << u_before << " -> " << u_after << ")\n";
+        restore(before);
+        report.polish_rejected = true;
+      } else if (config.verbose) {
+        std::cerr << "dem: L-BFGS polish energy " << e_before << " -> " << e_after << "\n";
+      }
     }
+    torch::NoGradGuard guard;
     Tensor l = loss(scale, &e, &jmin);
     for (const Tensor& p : parameters())
       if (!torch::isfinite(p).all().item<bool>()) return false;
@@ -248,10 +373,17 @@ DemSolver::DemSolver(core::ParticleCloud cloud, const core::Scenario& scenario, 
   if (config.activation != "tanh" && config.activation != "sigmoid" && config.activation != "softplus" &&
       config.activation != "sin")
     throw core::Error("unknown DEM activation '" + config.activation + "': use tanh, sigmoid, softplus or sin");
-  m.cloud = std::move(cloud);
   m.config = config;
   m.dtype = config.double_precision ? torch::kFloat64 : torch::kFloat32;
-  at::set_num_threads(config.threads > 0 ? config.threads : std::max(1u, std::thread::hardware_concurrency()));
+  // One thread is fastest for product-size clouds on shared 2-core machines (notes/dem_speed.md);
+  // large clouds amortise the threads' synchronisation.
+  const int threads = config.threads > 0 ? config.threads
+                      : cloud.size() < 50000 ? 1
+                                             : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  at::set_num_threads(threads);
+  setBlasThreads(threads);
+  if (config.tune_allocator) keepLargeAllocationsInHeap();
+  m.cloud = std::move(cloud);
   torch::manual_seed(config.seed);
   Eigen::Vector3d lo = m.cloud.positions[0], hi = lo;
   for (const auto& p : m.cloud.positions) {
@@ -262,6 +394,9 @@ DemSolver::DemSolver(core::ParticleCloud cloud, const core::Scenario& scenario, 
   m.half = (0.5 * (hi - lo)).cwiseMax(1e-9 * (hi - lo).norm() + 1e-12);
   m.length = (hi - lo).maxCoeff();
   m.inv_half = toTensor(std::vector<Eigen::Vector3d>{m.half.cwiseInverse()}, m.dtype).squeeze(0);
+  m.center_t = toTensor(std::vector<Eigen::Vector3d>{m.center}, m.dtype);
+  m.eye3 = torch::eye(3, torch::TensorOptions().dtype(m.dtype)).unsqueeze(0);
+  m.rng.seed(static_cast<unsigned>(config.seed));
   int in = 3;
   for (int l = 0; l <= config.depth; ++l) {
     const int out = l == config.depth ? 3 : config.width;
@@ -285,7 +420,11 @@ void DemSolver::setScenario(const core::Scenario& scenario) {
   const auto traction = particleTractions(scenario, m.cloud);
   const Dirichlet fixed = resolveFixtures(scenario, m.cloud.positions);
   const DirichletLift lift = dirichletLift(scenario, m.cloud.positions, m.length);
-  const std::vector<double> weight = energyWeights(m.cloud);
+  // Jittered cells are sampled over their whole volume, which already covers the strip between the
+  // outer particle layer and the surface: they keep their own volume (moving a share to surface
+  // points would under-weight that strip and reopen a cheaper-than-physical surface layer; measured
+  // on the uniaxial cube: energy 2 % below the exact minimum). Fixed quadrature needs the shares.
+  const std::vector<double> weight = m.config.jitter ? m.cloud.volumes : energyWeights(m.cloud);
   std::vector<long> vi, si;
   double volume = 0.0, max_t = 0.0, max_g = 0.0;
   for (std::size_t i = 0; i < m.cloud.size(); ++i) {
@@ -295,6 +434,27 @@ void DemSolver::setScenario(const core::Scenario& scenario) {
     max_t = std::max(max_t, traction[i].norm());
   }
   if (vi.empty()) throw core::Error("the particle cloud has no particle with volume > 0");
+  // Fixed-first order: the band particles near a fixture go last (see DemConfig::jitter).
+  std::vector<long> fixed_part, band_part;
+  std::vector<double> half_cell(m.cloud.size(), 0.0);
+  for (long i : vi) {
+    const bool interior = m.cloud.volumes[i] > 0 && !m.cloud.isSurface(i);
+    double near = std::numeric_limits<double>::infinity();
+    if (interior) {
+      half_cell[i] = 0.5 * std::cbrt(m.cloud.volumes[i]);
+      for (const core::Fixture& f : scenario.fixtures) near = std::min(near, regionDistance(f.region, m.cloud.positions[i]));
+    }
+    (interior && m.config.jitter && near < m.config.jitter_band * 2 * half_cell[i] ? band_part : fixed_part).push_back(i);
+  }
+  vi = fixed_part;
+  vi.insert(vi.end(), band_part.begin(), band_part.end());
+  m.n_band = static_cast<long>(band_part.size());
+  m.band_points.clear();
+  m.band_jitter.clear();
+  for (long i : band_part) {
+    m.band_points.push_back(m.cloud.positions[i]);
+    m.band_jitter.push_back(half_cell[i]);
+  }
   for (const auto& v : fixed.value) max_g = std::max(max_g, v.norm());
   const auto pick = [&](const std::vector<long>& idx, const auto& all) {
     using T = typename std::decay_t<decltype(all)>::value_type;
@@ -310,12 +470,6 @@ void DemSolver::setScenario(const core::Scenario& scenario) {
   }
   for (long i : si) ta.push_back(m.cloud.areas[i] * traction[i]);
   m.xv = pick(vi, m.cloud.positions);
-  m.xv_points.clear();
-  m.xv_jitter.clear();
-  for (long i : vi) {
-    m.xv_points.push_back(m.cloud.positions[i]);
-    m.xv_jitter.push_back(m.cloud.volumes[i] > 0 && !m.cloud.isSurface(i) ? 0.5 * std::cbrt(m.cloud.volumes[i]) : 0.0);
-  }
   m.vol = toTensor(vols, m.dtype);
   m.body = toTensor(body, m.dtype);
   m.xs = si.empty() ? torch::zeros({0, 3}, torch::TensorOptions().dtype(m.dtype)) : pick(si, m.cloud.positions);
@@ -338,10 +492,15 @@ void DemSolver::setScenario(const core::Scenario& scenario) {
   m.fixed_mask = toTensor(mask, m.dtype);
   // Scales: the network outputs O(1) for the expected displacement, and the loss is O(1) at the
   // expected strain, so optimiser tolerances mean the same thing for every body and load.
+  // A trained network keeps its fitted amplitude (a better guess than the a-priori one); the next
+  // solve refits it.
   const double E = scenario.material.youngs_modulus;
-  m.out_scale = std::max({max_g, m.length * (max_t + scenario.body_force.norm() * m.length) / E, 1e-6 * m.length});
-  const double strain = m.out_scale / m.length;
-  m.energy_scale = m.material->mu() * volume * strain * strain;
+  if (!m.rescaled) {
+    m.out_scale = std::max({max_g, m.length * (max_t + scenario.body_force.norm() * m.length) / E, 1e-6 * m.length});
+    const double strain = m.out_scale / m.length;
+    m.energy_scale = m.material->mu() * volume * strain * strain;
+  }
+  m.rescaled = false;
   m.fraction = 0.0;
 }
 
@@ -357,7 +516,7 @@ DemReport DemSolver::solve() {
   while (done < 1.0 - 1e-12) {
     const double target = std::min(1.0, done + step);
     const auto saved = m.snapshot();
-    if (m.train(target, report.iterations)) {
+    if (m.train(target, report.iterations, report)) {
       done = target;
       ++report.load_steps;
       step = std::min(nominal, 2.0 * step);
@@ -375,8 +534,10 @@ DemReport DemSolver::solve() {
     }
   }
   m.fraction = 1.0;
+  report.output_scale = m.out_scale;
   double energy = 0, jmin = 0;
   {
+    torch::NoGradGuard guard;
     Tensor l = m.loss(1.0, &energy, &jmin);
     if (!std::isfinite(l.item<double>()) || !(jmin > 0))
       throw core::Error("DEM: the trained field is not admissible (NaN or det F <= 0)");

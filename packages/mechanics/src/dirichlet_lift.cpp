@@ -5,52 +5,107 @@
 namespace demnerf::mechanics {
 namespace {
 
-// g and D of one point (no gradients).
-void liftAt(const core::Scenario& scenario, const Eigen::Vector3d& x, double length, Eigen::Vector3d& g,
-            Eigen::Vector3d& D) {
-  for (int c = 0; c < 3; ++c) {
-    std::vector<double> d;
-    std::vector<double> v;
-    for (const core::Fixture& f : scenario.fixtures)
-      if (f.constrained(c)) {
-        d.push_back(regionDistance(f.region, x) / length);
-        v.push_back(f.displacement(c));
-      }
-    D(c) = 1.0;
-    g(c) = 0.0;
-    if (d.empty()) continue;
-    for (double dk : d) D(c) *= dk;
-    // Transfinite blend: weight of fixture k is the product of the distances to the others, so
-    // g equals v_k wherever d_k = 0.
-    double num = 0.0, den = 0.0;
-    for (std::size_t k = 0; k < d.size(); ++k) {
-      double w = 1.0;
-      for (std::size_t j = 0; j < d.size(); ++j)
-        if (j != k) w *= d[j];
-      num += w * v[k];
-      den += w;
+// Distance to a region and its gradient (0 inside, where the distance is flat). The gradient of
+// a Euclidean distance has unit length wherever it is non-zero, so D's slope is bounded.
+double regionDistanceAndGradient(const core::Region& region, const Eigen::Vector3d& x, Eigen::Vector3d& grad) {
+  grad.setZero();
+  switch (region.type) {
+    case core::Region::Type::kBox: {
+      const Eigen::Vector3d rel = x - region.center;
+      const Eigen::Vector3d outside = (rel.cwiseAbs() - 0.5 * region.size).cwiseMax(0.0);
+      const double d = outside.norm();
+      if (d > 0.0)
+        for (int k = 0; k < 3; ++k) grad(k) = (rel(k) < 0 ? -1.0 : 1.0) * outside(k) / d;
+      return d;
     }
-    if (den > 0.0) {
-      g(c) = num / den;
-    } else {  // inside two fixtures at once: the last one wins, as in resolveFixtures
-      for (std::size_t k = 0; k < d.size(); ++k)
-        if (d[k] == 0.0) g(c) = v[k];
+    case core::Region::Type::kSphere: {
+      const Eigen::Vector3d rel = x - region.center;
+      const double r = rel.norm();
+      if (r <= region.radius) return 0.0;
+      grad = rel / r;
+      return r - region.radius;
+    }
+    case core::Region::Type::kHalfspace: {
+      const Eigen::Vector3d n = region.normal.normalized();
+      const double d = (x - region.center).dot(n);
+      if (d <= 0.0) return 0.0;
+      grad = n;
+      return d;
     }
   }
+  return 0.0;
 }
 
 }  // namespace
 
 double regionDistance(const core::Region& region, const Eigen::Vector3d& x) {
-  switch (region.type) {
-    case core::Region::Type::kBox:
-      return ((x - region.center).cwiseAbs() - 0.5 * region.size).cwiseMax(0.0).norm();
-    case core::Region::Type::kSphere:
-      return std::max(0.0, (x - region.center).norm() - region.radius);
-    case core::Region::Type::kHalfspace:
-      return std::max(0.0, (x - region.center).dot(region.normal.normalized()));
+  Eigen::Vector3d unused;
+  return regionDistanceAndGradient(region, x, unused);
+}
+
+void dirichletLiftAt(const core::Scenario& scenario, const Eigen::Vector3d& x, double length, Eigen::Vector3d& g,
+                     Eigen::Matrix3d& grad_g, Eigen::Vector3d& D, Eigen::Matrix3d& grad_D) {
+  // Distances to every fixture once; components pick the fixtures that constrain them.
+  constexpr int kMaxFixtures = 16;
+  const int nf = static_cast<int>(scenario.fixtures.size());
+  double dist_small[kMaxFixtures];
+  Eigen::Vector3d grad_small[kMaxFixtures];
+  std::vector<double> dist_big;
+  std::vector<Eigen::Vector3d> grad_big;
+  double* dist = dist_small;
+  Eigen::Vector3d* grad = grad_small;
+  if (nf > kMaxFixtures) {
+    dist_big.resize(nf);
+    grad_big.resize(nf);
+    dist = dist_big.data();
+    grad = grad_big.data();
   }
-  return 0.0;
+  for (int f = 0; f < nf; ++f) {
+    dist[f] = regionDistanceAndGradient(scenario.fixtures[f].region, x, grad[f]) / length;
+    grad[f] /= length;
+  }
+  for (int c = 0; c < 3; ++c) {
+    // D_c = prod_k d_k over the fixtures constraining c; transfinite lift
+    // g_c = sum_k w_k v_k / sum_k w_k with w_k = prod_{j != k} d_j, so g_c = v_k wherever d_k = 0.
+    double Dc = 1.0, num = 0.0, den = 0.0;
+    Eigen::Vector3d gD = Eigen::Vector3d::Zero(), gnum = Eigen::Vector3d::Zero(), gden = Eigen::Vector3d::Zero();
+    int count = 0;
+    double inside_value = 0.0;
+    bool inside = false;
+    for (int k = 0; k < nf; ++k) {
+      const core::Fixture& fk = scenario.fixtures[k];
+      if (!fk.constrained(c)) continue;
+      ++count;
+      gD = gD * dist[k] + Dc * grad[k];
+      Dc *= dist[k];
+      double w = 1.0;
+      Eigen::Vector3d gw = Eigen::Vector3d::Zero();
+      for (int j = 0; j < nf; ++j) {
+        if (j == k || !scenario.fixtures[j].constrained(c)) continue;
+        gw = gw * dist[j] + w * grad[j];
+        w *= dist[j];
+      }
+      num += w * fk.displacement(c);
+      gnum += gw * fk.displacement(c);
+      den += w;
+      gden += gw;
+      if (dist[k] == 0.0) {  // inside two fixtures at once: the last one wins, as in resolveFixtures
+        inside = true;
+        inside_value = fk.displacement(c);
+      }
+    }
+    D(c) = count ? Dc : 1.0;
+    grad_D.row(c) = count ? Eigen::RowVector3d(gD.transpose()) : Eigen::RowVector3d::Zero();
+    g(c) = 0.0;
+    grad_g.row(c).setZero();
+    if (!count) continue;
+    if (den > 0.0) {
+      g(c) = num / den;
+      grad_g.row(c) = ((gnum * den - num * gden) / (den * den)).transpose();
+    } else if (inside) {
+      g(c) = inside_value;
+    }
+  }
 }
 
 DirichletLift dirichletLift(const core::Scenario& scenario, const std::vector<Eigen::Vector3d>& points, double length) {
@@ -60,21 +115,8 @@ DirichletLift dirichletLift(const core::Scenario& scenario, const std::vector<Ei
   lift.D.resize(n);
   lift.grad_g.resize(n);
   lift.grad_D.resize(n);
-  // Central differences: the distance functions are only piecewise smooth, and this averages
-  // their one-sided slopes at kinks, which is what the network sees anyway.
-  const double h = 1e-6 * length;
-  for (std::size_t i = 0; i < n; ++i) {
-    liftAt(scenario, points[i], length, lift.g[i], lift.D[i]);
-    for (int k = 0; k < 3; ++k) {
-      Eigen::Vector3d gp, gm, Dp, Dm, xp = points[i], xm = points[i];
-      xp(k) += h;
-      xm(k) -= h;
-      liftAt(scenario, xp, length, gp, Dp);
-      liftAt(scenario, xm, length, gm, Dm);
-      lift.grad_g[i].col(k) = (gp - gm) / (2 * h);
-      lift.grad_D[i].col(k) = (Dp - Dm) / (2 * h);
-    }
-  }
+  for (std::size_t i = 0; i < n; ++i)
+    dirichletLiftAt(scenario, points[i], length, lift.g[i], lift.grad_g[i], lift.D[i], lift.grad_D[i]);
   return lift;
 }
 

@@ -1,7 +1,10 @@
 #include "nodes/dem/dem_node.hpp"
 
 #include <dem_nerf/TrainingStatus.h>
+#include <tf2_eigen/tf2_eigen.h>
 #include <visualization_msgs/MarkerArray.h>
+
+#include <sstream>
 
 #include "conversions/cloud_conversions.hpp"
 #include "conversions/region_conversions.hpp"
@@ -10,24 +13,84 @@
 namespace dem_nerf {
 namespace {
 
-const char* kNotBuilt = "the simulation stage is not built yet in this version of dem_nerf";
+using demnerf::core::Error;
+
+std::string describe(const demnerf::mechanics::SimulationOutcome& outcome) {
+  std::ostringstream text;
+  text.precision(4);
+  text << outcome.field.size() << " particles, max displacement " << outcome.max_displacement * 1000.0
+       << " mm, energy " << outcome.energy << " J, " << outcome.seconds << " s";
+  return text.str();
+}
+
+visualization_msgs::Marker regionMarker(const demnerf::core::Region& region, const std::string& frame, int id,
+                                        float r, float g, float b) {
+  visualization_msgs::Marker marker;
+  marker.header.frame_id = frame;
+  marker.header.stamp = ros::Time::now();
+  marker.ns = "fixtures";
+  marker.id = id;
+  marker.action = visualization_msgs::Marker::ADD;
+  marker.pose.position.x = region.center.x();
+  marker.pose.position.y = region.center.y();
+  marker.pose.position.z = region.center.z();
+  marker.pose.orientation.w = 1.0;
+  if (region.type == demnerf::core::Region::Type::kSphere) {
+    marker.type = visualization_msgs::Marker::SPHERE;
+    marker.scale.x = marker.scale.y = marker.scale.z = 2.0 * region.radius;
+  } else {
+    marker.type = visualization_msgs::Marker::CUBE;
+    const Eigen::Vector3d size =
+        region.type == demnerf::core::Region::Type::kBox ? region.size : Eigen::Vector3d::Constant(0.01);
+    marker.scale.x = size.x();
+    marker.scale.y = size.y();
+    marker.scale.z = size.z();
+  }
+  marker.color.r = r;
+  marker.color.g = g;
+  marker.color.b = b;
+  marker.color.a = 0.4f;
+  return marker;
+}
+
+// Force arrows start at the load patch and are drawn 0.05 m long per newton of the largest load.
+visualization_msgs::Marker forceArrow(const demnerf::core::Load& load, const std::string& frame, int id, double scale) {
+  visualization_msgs::Marker marker;
+  marker.header.frame_id = frame;
+  marker.header.stamp = ros::Time::now();
+  marker.ns = "loads";
+  marker.id = id;
+  marker.type = visualization_msgs::Marker::ARROW;
+  marker.action = visualization_msgs::Marker::ADD;
+  marker.pose.orientation.w = 1.0;
+  geometry_msgs::Point tail, head;
+  tail.x = load.region.center.x();
+  tail.y = load.region.center.y();
+  tail.z = load.region.center.z();
+  const Eigen::Vector3d tip = load.region.center + scale * load.force;
+  head.x = tip.x();
+  head.y = tip.y();
+  head.z = tip.z();
+  marker.points = {tail, head};
+  marker.scale.x = 0.005;
+  marker.scale.y = 0.01;
+  marker.scale.z = 0.015;
+  marker.color.r = 1.0f;
+  marker.color.g = 0.3f;
+  marker.color.a = 1.0f;
+  return marker;
+}
 
 }  // namespace
 
 DemNode::DemNode(ros::NodeHandle node, ros::NodeHandle private_node, const DemNodeConfig& config)
-    : config_(config) {
+    : config_(config), solver_(demnerf::mechanics::parseSolverChoice(config.solver)), tf_listener_(tf_buffer_) {
   status_publisher_ = private_node.advertise<dem_nerf::TrainingStatus>("status", 10, true);
   displaced_publisher_ = private_node.advertise<sensor_msgs::PointCloud2>("displaced", 1, true);
   markers_publisher_ = private_node.advertise<visualization_msgs::MarkerArray>("markers", 1, true);
   image_transport::ImageTransport private_transport(private_node);
   rendered_publisher_ = private_transport.advertise("rendered", 1);
-  solve_service_ = private_node.advertiseService("solve", &DemNode::solve, this);
-  particles_subscriber_ = node.subscribe("particles", 1, &DemNode::onParticles, this);
-  fixtures_subscriber_ = private_node.subscribe("fixtures", 1, &DemNode::onFixtures, this);
-  wrench_subscriber_ = private_node.subscribe("wrench", 1, &DemNode::onWrench, this);
-  load_case_subscriber_ = private_node.subscribe("load_case", 1, &DemNode::onLoadCase, this);
-  model_subscriber_ = node.subscribe("model", 1, &DemNode::onModel, this);
-  status_timer_ = private_node.createTimer(ros::Duration(1.0), &DemNode::publishPeriodicStatus, this);
+  worker_ = std::make_unique<LatestWinsWorker<SolveJob>>([this](const SolveJob& job) { runSolve(job); });
 
   if (config_.scenario.empty()) {
     reportError("no ~scenario set: give a scenario YAML with the material (see config/scenarios/)");
@@ -35,47 +98,88 @@ DemNode::DemNode(ros::NodeHandle node, ros::NodeHandle private_node, const DemNo
     try {
       scenario_ = demnerf::core::loadScenario(config_.scenario);
       scenario_loaded_ = true;
-    } catch (const demnerf::core::Error& error) {
+    } catch (const Error& error) {
       reportError(error.what());
     }
   }
-  ROS_INFO("dem_node: solver %s; %s", config_.solver.c_str(), kNotBuilt);
+  solve_service_ = private_node.advertiseService("solve", &DemNode::solve, this);
+  particles_subscriber_ = node.subscribe("particles", 1, &DemNode::onParticles, this);
+  fixtures_subscriber_ = private_node.subscribe("fixtures", 1, &DemNode::onFixtures, this);
+  wrench_subscriber_ = private_node.subscribe("wrench", 10, &DemNode::onWrench, this);
+  load_case_subscriber_ = private_node.subscribe("load_case", 1, &DemNode::onLoadCase, this);
+  model_subscriber_ = node.subscribe("model", 1, &DemNode::onModel, this);
+  status_timer_ = private_node.createTimer(ros::Duration(1.0), &DemNode::publishPeriodicStatus, this);
+  ROS_INFO("dem_node: solver %s, scenario '%s'", demnerf::mechanics::solverName(solver_), config_.scenario.c_str());
 }
 
 void DemNode::onParticles(const sensor_msgs::PointCloud2ConstPtr& message) {
   try {
     demnerf::core::ParticleCloud cloud = particlesFromPointCloud2(*message);
-    std::lock_guard<std::mutex> lock(mutex_);
-    particles_ = std::move(cloud);
-  } catch (const demnerf::core::Error& error) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      particles_ = std::move(cloud);
+    }
+    requestSolve("new particles");
+  } catch (const Error& error) {
     reportError(std::string("particles rejected: ") + error.what());
   }
 }
 
 void DemNode::onFixtures(const dem_nerf::FixtureArrayConstPtr& message) {
   try {
-    for (const auto& fixture : message->fixtures) fromMessage(fixture);
-  } catch (const demnerf::core::Error& error) {
+    dem_nerf::LoadCase load_case;
+    load_case.fixtures = message->fixtures;
+    const demnerf::core::Scenario scenario = scenarioFor(load_case);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      scenario_.fixtures = scenario.fixtures;
+    }
+    requestSolve("new fixtures");
+  } catch (const Error& error) {
     reportError(std::string("fixtures rejected: ") + error.what());
   }
 }
 
 void DemNode::onWrench(const geometry_msgs::WrenchStampedConstPtr& message) {
-  const auto& w = message->wrench;
-  for (double v : {w.force.x, w.force.y, w.force.z, w.torque.x, w.torque.y, w.torque.z}) {
-    if (!std::isfinite(v)) {
-      reportError("wrench rejected: it holds NaN or Inf");
-      return;
+  try {
+    const auto& w = message->wrench;
+    const Eigen::Vector3d force(w.force.x, w.force.y, w.force.z), torque(w.torque.x, w.torque.y, w.torque.z);
+    if (!force.allFinite() || !torque.allFinite()) throw Error("it holds NaN or Inf");
+    std::string why;
+    if (!tf_buffer_.canTransform(config_.particles_frame, message->header.frame_id, message->header.stamp,
+                                 ros::Duration(config_.tf_timeout), &why)) {
+      throw Error("no tf from '" + config_.particles_frame + "' to the wrench frame '" + message->header.frame_id +
+                  "': " + why);
     }
+    const Eigen::Isometry3d pose = tf2::transformToEigen(
+        tf_buffer_.lookupTransform(config_.particles_frame, message->header.frame_id, message->header.stamp));
+    // The wrench acts at its frame's origin on the surface particles within ~contact_radius.
+    demnerf::core::Load load;
+    load.name = "wrench in " + message->header.frame_id;
+    load.region.type = demnerf::core::Region::Type::kSphere;
+    load.region.center = pose.translation();
+    load.region.radius = config_.contact_radius;
+    load.force = pose.linear() * force;
+    load.torque = pose.linear() * torque;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      scenario_.loads = {load};
+    }
+    requestSolve("wrench");
+  } catch (const Error& error) {
+    reportError(std::string("wrench rejected: ") + error.what());
   }
-  publishStatus("idle", std::string("wrench received; ") + kNotBuilt);
 }
 
 void DemNode::onLoadCase(const dem_nerf::LoadCaseConstPtr& message) {
   try {
-    scenarioFor(*message);
-    publishStatus("idle", std::string("load case accepted; ") + kNotBuilt);
-  } catch (const demnerf::core::Error& error) {
+    const demnerf::core::Scenario scenario = scenarioFor(*message);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      scenario_ = scenario;
+    }
+    requestSolve("load case");
+  } catch (const Error& error) {
     reportError(std::string("load case rejected: ") + error.what());
   }
 }
@@ -84,8 +188,8 @@ void DemNode::onModel(const dem_nerf::ModelInfoConstPtr&) {}
 
 demnerf::core::Scenario DemNode::scenarioFor(const dem_nerf::LoadCase& load_case) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (!scenario_loaded_) throw demnerf::core::Error("no valid ~scenario loaded, so no material is known");
-  if (!particles_) throw demnerf::core::Error("no particle cloud received yet on 'particles'");
+  if (!scenario_loaded_) throw Error("no valid ~scenario loaded, so no material is known");
+  if (!particles_) throw Error("no particle cloud received yet on 'particles'");
   demnerf::core::Scenario scenario = scenario_;
   if (!load_case.fixtures.empty()) {
     scenario.fixtures.clear();
@@ -95,25 +199,92 @@ demnerf::core::Scenario DemNode::scenarioFor(const dem_nerf::LoadCase& load_case
     scenario.loads.clear();
     for (const auto& load : load_case.loads) scenario.loads.push_back(fromMessage(load));
   }
-  scenario.body_force = {load_case.body_force.x, load_case.body_force.y, load_case.body_force.z};
+  const Eigen::Vector3d body_force(load_case.body_force.x, load_case.body_force.y, load_case.body_force.z);
+  if (!body_force.isZero()) scenario.body_force = body_force;
   scenario.validate("load case");
   for (const auto& fixture : scenario.fixtures) {
     bool selects = false;
     for (const auto& p : particles_->positions) selects = selects || fixture.region.contains(p);
     if (!selects) {
-      throw demnerf::core::Error("fixture '" + fixture.name + "' selects no particles: region " +
-                                 fixture.region.describe());
+      throw Error("fixture '" + fixture.name + "' selects no particles: region " + fixture.region.describe());
     }
   }
   return scenario;
 }
 
+void DemNode::requestSolve(const std::string& cause) {
+  SolveJob job;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!particles_ || !scenario_loaded_ || scenario_.loads.empty()) return;
+    job.cloud = *particles_;
+    job.scenario = scenario_;
+    stage_ = "solving";
+  }
+  job.cause = cause;
+  worker_->submit(std::move(job));
+}
+
+void DemNode::runSolve(const SolveJob& job) {
+  try {
+    const demnerf::mechanics::SimulationOutcome outcome =
+        demnerf::mechanics::simulate(job.cloud, job.scenario, solver_);
+    publishResult(outcome, job.scenario);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stage_ = "solved";
+      last_figures_ = describe(outcome);
+    }
+    publishStatus("solved", job.cause + ": " + describe(outcome));
+  } catch (const Error& error) {
+    // The last good solution stays published; the error says why this one failed.
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stage_ = "error";
+    }
+    reportError(job.cause + " not solved: " + error.what());
+  }
+}
+
+void DemNode::publishResult(const demnerf::mechanics::SimulationOutcome& outcome,
+                            const demnerf::core::Scenario& scenario) {
+  std_msgs::Header header;
+  header.stamp = ros::Time::now();
+  header.frame_id = config_.particles_frame;
+  displaced_publisher_.publish(toPointCloud2(outcome.field, header, /*displaced_positions=*/true));
+  visualization_msgs::MarkerArray markers;
+  double largest = 0.0;
+  for (const auto& load : scenario.loads) largest = std::max(largest, load.force.norm());
+  int id = 0;
+  for (const auto& fixture : scenario.fixtures) {
+    markers.markers.push_back(regionMarker(fixture.region, config_.particles_frame, id++, 0.2f, 0.4f, 1.0f));
+  }
+  for (const auto& load : scenario.loads) {
+    markers.markers.push_back(forceArrow(load, config_.particles_frame, id++, largest > 0 ? 0.05 / largest : 0.0));
+  }
+  markers_publisher_.publish(markers);
+}
+
 bool DemNode::solve(dem_nerf::Solve::Request& request, dem_nerf::Solve::Response& response) {
   try {
-    scenarioFor(request.load_case);
-    response.ok = false;
-    response.message = kNotBuilt;
-  } catch (const demnerf::core::Error& error) {
+    demnerf::core::ParticleCloud cloud;
+    const demnerf::core::Scenario scenario = scenarioFor(request.load_case);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      cloud = *particles_;
+    }
+    const demnerf::mechanics::SimulationOutcome outcome = demnerf::mechanics::simulate(cloud, scenario, solver_);
+    std_msgs::Header header = request.load_case.header;
+    header.frame_id = config_.particles_frame;
+    header.stamp = ros::Time::now();
+    response.displaced = toPointCloud2(outcome.field, header, /*displaced_positions=*/false);
+    response.seconds = outcome.seconds;
+    response.energy = outcome.energy;
+    response.max_displacement = outcome.max_displacement;
+    response.ok = true;
+    response.message = describe(outcome);
+    publishResult(outcome, scenario);
+  } catch (const Error& error) {
     response.ok = false;
     response.message = error.what();
     reportError(error.what());
@@ -139,13 +310,15 @@ void DemNode::reportError(const std::string& message) {
 }
 
 void DemNode::publishPeriodicStatus(const ros::TimerEvent&) {
-  std::string message;
+  std::string stage, message;
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    stage = stage_;
     message = (particles_ ? std::to_string(particles_->size()) + " particles" : std::string("no particles yet")) +
+              (last_figures_.empty() ? "" : "; last solve: " + last_figures_) +
               (last_error_.empty() ? "" : "; last error: " + last_error_);
   }
-  publishStatus("idle", message + "; " + kNotBuilt);
+  publishStatus(stage, message);
 }
 
 }  // namespace dem_nerf

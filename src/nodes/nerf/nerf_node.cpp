@@ -104,7 +104,13 @@ demnerf::core::ParticleCloud sampleModel(const demnerf::nerf::NerfModel& model, 
                                          const std::string& sampler, double spacing,
                                          demnerf::core::TriangleMesh* mesh_out) {
   demnerf::geometry::MeshExtractionConfig extraction;
-  extraction.threshold = config.density_threshold;
+  if (config.density_threshold > 0.0) {
+    extraction.surface = demnerf::geometry::SurfaceDefinition::kDensity;
+    extraction.threshold = config.density_threshold;
+  } else {
+    extraction.surface = demnerf::geometry::SurfaceDefinition::kOpacity;
+    extraction.opacity = config.surface_opacity;
+  }
   const demnerf::core::TriangleMesh mesh = extractSurface(model, config.extract_resolution, extraction).mesh;
   demnerf::geometry::SamplerConfig sampling;
   sampling.method = demnerf::geometry::parseSamplingMethod(sampler);

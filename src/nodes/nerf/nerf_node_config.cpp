@@ -31,6 +31,8 @@ NerfNodeConfig NerfNodeConfig::fromParameters(const ros::NodeHandle& node) {
   readCount(node, "threads", config.threads, 0);
   node.param("nerf_config", config.nerf_config, config.nerf_config);
   readCount(node, "extract_resolution", config.extract_resolution, 16);
+  readNumber(node, "surface_opacity", config.surface_opacity, 0.0);
+  if (config.surface_opacity >= 1.0) throw demnerf::core::Error("parameter ~surface_opacity must lie in (0, 1)");
   readNumber(node, "density_threshold", config.density_threshold, 0.0);
   node.param("sampler", config.sampler, config.sampler);
   if (config.sampler != "random" && config.sampler != "poisson" && config.sampler != "grid") {

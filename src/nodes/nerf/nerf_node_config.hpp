@@ -27,7 +27,8 @@ struct NerfNodeConfig {
   std::string nerf_config;            ///< nerf.yaml with the field and training settings (empty: defaults)
   int threads = 0;                    ///< torch threads (0: all cores)
   int extract_resolution = 128;       ///< density grid for the mesh and particles
-  double density_threshold = 2.5;     ///< iso-level of the surface (instant-ngp's default)
+  double surface_opacity = 0.15;      ///< the surface is where the body reaches this opacity seen from outside
+  double density_threshold = 0.0;     ///< > 0: a density iso-surface instead (instant-ngp uses 2.5)
   std::string sampler = "poisson";    ///< random | poisson | grid, for ~particles
   double particle_spacing = 0.0;      ///< m; 0: 1/40 of the mesh's bounding-box diagonal
 

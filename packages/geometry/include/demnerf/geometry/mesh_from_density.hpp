@@ -1,17 +1,31 @@
 #pragma once
 // Density grid -> closed surface mesh: iso-surface, largest component, holes, orientation.
 
+#include <string>
+
 #include "demnerf/core/ply.hpp"
 #include "demnerf/geometry/density_grid.hpp"
 #include "demnerf/geometry/mesh_repair.hpp"
+#include "demnerf/geometry/mesh_simplification.hpp"
 
 namespace demnerf::geometry {
 
+/// What "the surface" of a density field is.
+enum class SurfaceDefinition {
+  kDensity,  ///< {sigma = threshold}: instant-ngp's marching cubes (threshold 2.5)
+  kOpacity,  ///< where a view from outside along the clearest axis reaches `opacity` (axisOpticalDepth)
+};
+
 struct MeshExtractionConfig {
-  /// Density at the surface. 2.5 is instant-ngp's default for its marching cubes; see
-  /// densityForOpacity() for a threshold chosen by opacity.
+  SurfaceDefinition surface = SurfaceDefinition::kDensity;
+  /// kDensity: density at the surface. 2.5 is instant-ngp's default for its marching cubes; see
+  /// densityForOpacity() for a threshold chosen from an opacity per step.
   double threshold = 2.5;
+  /// kOpacity: opacity at the surface, in (0, 1); 0.5 is where a rendered ray's depth lands.
+  double opacity = 0.5;
   MeshRepairConfig repair;
+  /// Edge-collapse budget applied after repair (0 keeps every marching-tetrahedra face).
+  MeshSimplificationConfig simplification{0};
 };
 
 struct MeshExtractionResult {
@@ -22,10 +36,15 @@ struct MeshExtractionResult {
   double area = 0.0;
   bool closed = false;
   MeshRepairReport repair;
+  MeshSimplificationReport simplification;
+  double iso_value = 0.0;  ///< the level extracted: the density threshold, or -ln(1 - opacity)
 };
 
-/// Extracts and repairs the surface. Throws core::Error naming the threshold and the grid's
-/// density range when no cell crosses the threshold.
+/// Parses "density" | "opacity" (the CLI's --surface); throws core::Error naming the value.
+SurfaceDefinition parseSurfaceDefinition(const std::string& name);
+
+/// Extracts, repairs and (with a face budget) simplifies the surface. Throws core::Error
+/// naming the threshold (or opacity) and the grid's range when no cell crosses it.
 MeshExtractionResult extractMesh(const DensityGrid& grid, const MeshExtractionConfig& config = {});
 
 }  // namespace demnerf::geometry

@@ -14,4 +14,7 @@ namespace demnerf::mechanics {
 core::ParticleCloud makeBoxParticles(const Eigen::Vector3d& lower, const Eigen::Vector3d& upper,
                                      const Eigen::Vector3i& cells);
 
+/// Closed triangle surface of the box [lower, upper] (12 outward counter-clockwise triangles).
+core::TriangleMesh boxSurface(const Eigen::Vector3d& lower, const Eigen::Vector3d& upper);
+
 }  // namespace demnerf::mechanics

@@ -20,19 +20,45 @@ struct DemConfig {
   enum class Boundary { kExact, kPenalty };
   Boundary boundary = Boundary::kExact;
   double penalty_weight = 1e4;         ///< W_u (on MSE_u / L^2, with Pi / (mu V))
-  int adam_iterations = 1500;          ///< per load step; the last third at a 10x smaller rate
-  double adam_learning_rate = 2e-3;
-  /// Adam samples each interior particle's quadrature point at random within its cell.
+  int adam_iterations = 1500;          ///< per load step, full batch (all particles every step)
+  double adam_learning_rate = 1e-2;   ///< best of 2e-3 / 5e-3 / 1e-2 on the uniaxial cube
+  /// The rate decays exponentially to adam_learning_rate * adam_final_rate_ratio over a load step.
+  double adam_final_rate_ratio = 0.02;
+  /// The network's output amplitude is refitted by a 1-D energy line search at these Adam
+  /// iterations of the first load step (0: never). The a-priori displacement scale (traction /
+  /// stiffness x size) can be 100x off for slender bodies (torsion), and Adam cannot grow the
+  /// output layer 100x in a few hundred steps.
+  int rescale_every = 25;
+  int rescale_until = 200;
+  /// Stochastic quadrature near fixtures: particles within jitter_band cells of a fixture move at
+  /// random within their cell at every Adam step, so the network cannot hide a displacement ramp
+  /// between the fixture and the first particle layer (u = D z with z ~ T / D is a free rigid
+  /// translation T away from the fixture otherwise). Particles further away keep fixed points and
+  /// precomputed lift values.
   bool jitter = true;
-  /// L-BFGS polish per load step on the fixed particles (0: off). A deterministic optimiser can
-  /// find displacement ramps hidden between sample points, so it is off by default.
+  /// Only particles within this many cells (cube root of the particle volume) of a fixture are
+  /// jittered; the default jitters all: a loaded surface needs it as much as a fixture (a strain
+  /// layer under the traction patch between sample points harvests work too).
+  double jitter_band = 1e9;
+  /// L-BFGS polish per load step on the fixed particles (0: off). It is rejected (the Adam state
+  /// kept) when it lowers the energy by more than polish_max_energy_drop x |Pi| or grows the
+  /// largest displacement by more than polish_max_growth: the signature of the ramp exploit.
   int lbfgs_iterations = 0;
   int lbfgs_history = 50;
+  /// A legitimate polish after a short Adam run lowers Pi 3.5x and grows max |u| 4x on the T-bar;
+  /// the exploit lowers Pi ~100x with |u| larger than the body (notes/mechanics.md).
+  double polish_max_energy_drop = 10.0;
+  double polish_max_growth = 10.0;
   double tolerance = 1e-10;            ///< L-BFGS stops when the loss changes less than this
   int max_halvings = 4;                ///< load-step halvings after an inverted or NaN solve
-  int threads = 0;                     ///< torch threads; 0 = all cores
+  /// Torch threads; 0 = 1 thread below 50k particles (faster there on loaded 2-core machines,
+  /// see notes/dem_speed.md), all cores above.
+  int threads = 0;
+  /// Raise glibc's mmap threshold (process-wide) so per-step activation buffers are reused
+  /// instead of page-faulted in fresh every Adam step (about 1.8x at T-bar sizes).
+  bool tune_allocator = true;
   int seed = 1;
-  bool double_precision = true;
+  bool double_precision = false;       ///< float32 by default: 2x faster, accurate to < 1e-4
   bool verbose = false;
 };
 
@@ -42,6 +68,8 @@ struct DemReport {
   double min_J = 0.0;         ///< smallest det F over the particles
   int iterations = 0;         ///< optimiser iterations over all load steps
   int load_steps = 0;         ///< load steps taken, halvings included
+  double output_scale = 0.0;  ///< displacement scale of the network output after rescaling (m)
+  bool polish_rejected = false;  ///< an L-BFGS polish was undone (exploit guard)
 };
 
 class DemSolver {

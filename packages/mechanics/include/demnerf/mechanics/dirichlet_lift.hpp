@@ -12,13 +12,18 @@ namespace demnerf::mechanics {
 /// g, D and their gradients at points, for a scenario's fixtures at full load.
 struct DirichletLift {
   std::vector<Eigen::Vector3d> g;          ///< lift: equals the prescribed value on each fixture
-  std::vector<Eigen::Matrix3d> grad_g;     ///< d g_i / d X_k
+  std::vector<Eigen::Matrix3d> grad_g;     ///< (i, k) = d g_i / d X_k
   std::vector<Eigen::Vector3d> D;          ///< distance factor: 0 on fixtures constraining component i
-  std::vector<Eigen::Matrix3d> grad_D;     ///< d D_i / d X_k
+  std::vector<Eigen::Matrix3d> grad_D;     ///< (i, k) = d D_i / d X_k
 };
 
 /// Distance from a point to a region (0 inside).
 double regionDistance(const core::Region& region, const Eigen::Vector3d& x);
+
+/// g, grad g, D, grad D at one point, with analytic gradients (one-sided 0 inside a fixture,
+/// where the distance is flat). Cheap enough to call for every quadrature point every step.
+void dirichletLiftAt(const core::Scenario& scenario, const Eigen::Vector3d& x, double length, Eigen::Vector3d& g,
+                     Eigen::Matrix3d& grad_g, Eigen::Vector3d& D, Eigen::Matrix3d& grad_D);
 
 /// `length` normalises distances (the body's size), so D is O(1) over the body. Components no
 /// fixture constrains get D = 1, g = 0.

@@ -1,0 +1,231 @@
+// DEM tuning bench: one Deep Energy Method configuration on the homogeneous uniaxial-traction cube
+// (closed form) or the T-bar twist (against a cached TET10 FEM reference), with timings.
+// Usage: mechanics_dem key=value ...
+//   case=uniaxial|tbar  iters=N lr=R final=RATIO lbfgs=N width=W depth=D threads=T jitter=0|1
+//   band=CELLS steps=LOAD_STEPS cells=N (uniaxial) h=M (T-bar particle cell) fem_h=M (T-bar FEM)
+//   fem_cache=PATH seeds=N double=0|1 verbose=0|1 activation=tanh|softplus|...
+// Prints one markdown row per seed and the median time / error.
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "demnerf/core/scenario.hpp"
+#include "demnerf/mechanics/box_particles.hpp"
+#include "demnerf/mechanics/dem_solver.hpp"
+#include "demnerf/mechanics/fem_solver.hpp"
+#include "demnerf/mechanics/material.hpp"
+#include "demnerf/mechanics/reference_problems.hpp"
+#include "demnerf/mechanics/voxel_mesh.hpp"
+
+namespace dm = demnerf::mechanics;
+namespace core = demnerf::core;
+using Eigen::Vector3d;
+
+namespace {
+
+bool inTbar(const Vector3d& p) {
+  const bool leg = std::abs(p.x()) < 0.03 && std::abs(p.y()) < 0.03 && p.z() > 0 && p.z() < 0.24;
+  const bool bar = std::abs(p.x()) < 0.15 && std::abs(p.y()) < 0.03 && p.z() >= 0.24 && p.z() < 0.30;
+  return leg || bar;
+}
+
+// Midpoint-rule particles of the T-bar (as in mechanics_tbar.cpp).
+core::ParticleCloud tbarParticles(double h) {
+  core::ParticleCloud cloud;
+  const Vector3d lo(-0.15, -0.03, 0.0);
+  const Eigen::Vector3i n(static_cast<int>(std::lround(0.30 / h)), static_cast<int>(std::lround(0.06 / h)),
+                          static_cast<int>(std::lround(0.30 / h)));
+  auto add = [&](const Vector3d& x, double volume, const Vector3d& normal, double area) {
+    cloud.positions.push_back(x);
+    cloud.volumes.push_back(volume);
+    cloud.normals.push_back(normal);
+    cloud.areas.push_back(area);
+    cloud.colors.push_back({200, 200, 200});
+  };
+  for (int k = 0; k < n(2); ++k)
+    for (int j = 0; j < n(1); ++j)
+      for (int i = 0; i < n(0); ++i) {
+        const Vector3d c = lo + h * Vector3d(i + 0.5, j + 0.5, k + 0.5);
+        if (!inTbar(c)) continue;
+        add(c, h * h * h, Vector3d::Zero(), 0.0);
+        for (int a = 0; a < 3; ++a)
+          for (int s : {-1, 1}) {
+            Vector3d d = Vector3d::Zero();
+            d(a) = s;
+            if (!inTbar(c + h * d)) add(c + 0.5 * h * d, 0.0, d, h * h);
+          }
+      }
+  return cloud;
+}
+
+core::Region box(const Vector3d& center, const Vector3d& size) {
+  core::Region r;
+  r.type = core::Region::Type::kBox;
+  r.center = center;
+  r.size = size;
+  return r;
+}
+
+core::Scenario uniaxial(double p11) {
+  core::Scenario s;
+  s.name = "uniaxial";
+  s.material.youngs_modulus = 1e6;
+  s.material.poisson_ratio = 0.3;
+  for (int axis = 0; axis < 3; ++axis) {
+    core::Fixture f;
+    f.name = std::string("roller_") + "xyz"[axis];
+    Vector3d c(0.5, 0.5, 0.5), size(2, 2, 2);
+    c(axis) = 0.0;
+    size(axis) = 1e-6;
+    f.region = box(c, size);
+    f.constrained = Eigen::Vector3i::Zero();
+    f.constrained(axis) = 1;
+    s.fixtures.push_back(f);
+  }
+  core::Load pull;
+  pull.name = "pull";
+  pull.region = box(Vector3d(1, 0.5, 0.5), Vector3d(1e-6, 2, 2));
+  pull.force = Vector3d(p11, 0, 0);
+  s.loads = {pull};
+  return s;
+}
+
+double since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);
+  std::map<std::string, std::string> a;
+  for (int i = 1; i < argc; ++i) {
+    const std::string s = argv[i];
+    const auto eq = s.find('=');
+    if (eq != std::string::npos) a[s.substr(0, eq)] = s.substr(eq + 1);
+  }
+  auto num = [&](const char* k, double d) { return a.count(k) ? std::atof(a[k].c_str()) : d; };
+  const std::string which = a.count("case") ? a["case"] : "tbar";
+  dm::DemConfig config;
+  config.adam_iterations = static_cast<int>(num("iters", config.adam_iterations));
+  config.adam_learning_rate = num("lr", config.adam_learning_rate);
+  config.adam_final_rate_ratio = num("final", config.adam_final_rate_ratio);
+  config.lbfgs_iterations = static_cast<int>(num("lbfgs", 0));
+  config.width = static_cast<int>(num("width", config.width));
+  config.depth = static_cast<int>(num("depth", config.depth));
+  config.threads = static_cast<int>(num("threads", 0));
+  config.jitter = num("jitter", 1) != 0;
+  config.jitter_band = num("band", config.jitter_band);
+  config.double_precision = num("double", 0) != 0;
+  config.verbose = num("verbose", 0) != 0;
+  config.rescale_every = static_cast<int>(num("rescale", config.rescale_every));
+  config.polish_max_energy_drop = num("drop", config.polish_max_energy_drop);
+  config.polish_max_growth = num("growth", config.polish_max_growth);
+  config.lbfgs_history = static_cast<int>(num("history", config.lbfgs_history));
+  if (a.count("activation")) config.activation = a["activation"];
+  if (a.count("boundary") && a["boundary"] == "penalty") config.boundary = dm::DemConfig::Boundary::kPenalty;
+  const int seeds = static_cast<int>(num("seeds", 3));
+
+  core::Scenario scenario;
+  core::ParticleCloud cloud;
+  std::vector<Vector3d> ref;
+  if (which == "uniaxial") {
+    const int n = static_cast<int>(num("cells", 6));
+    cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(n, n, n));
+    scenario = uniaxial(2e5);
+    double b = 0;
+    const double s = dm::uniaxialStretchForStress(*dm::makeMaterial(scenario.material), 2e5, &b);
+    for (const auto& X : cloud.positions) ref.emplace_back((s - 1) * X.x(), (b - 1) * X.y(), (b - 1) * X.z());
+  } else {
+    scenario = core::loadScenario(a.count("scenario") ? a["scenario"]
+                                                      : std::string(DEMNERF_ROOT) + "/config/scenarios/tbar_twist.yaml");
+    const double h = num("h", 0.0075), fem_h = num("fem_h", 0.01);
+    cloud = tbarParticles(h);
+    const std::string cache = a.count("fem_cache") ? a["fem_cache"]
+                                                   : "/tmp/dem_tbar_fem_" + std::to_string(h) + "_" + std::to_string(fem_h) + ".bin";
+    std::ifstream in(cache, std::ios::binary);
+    if (in) {
+      ref.resize(cloud.size());
+      in.read(reinterpret_cast<char*>(ref.data()), static_cast<std::streamsize>(ref.size() * sizeof(Vector3d)));
+      if (!in) ref.clear();
+    }
+    if (ref.empty()) {
+      core::TriangleMesh surface = dm::boxSurface(Vector3d(-0.03, -0.03, 0.0), Vector3d(0.03, 0.03, 0.24));
+      const core::TriangleMesh bar = dm::boxSurface(Vector3d(-0.15, -0.03, 0.24), Vector3d(0.15, 0.03, 0.30));
+      for (const auto& f : bar.faces) surface.faces.push_back({f[0] + 8, f[1] + 8, f[2] + 8});
+      surface.vertices.insert(surface.vertices.end(), bar.vertices.begin(), bar.vertices.end());
+      dm::VoxelMeshConfig voxel;
+      voxel.cell = fem_h;
+      voxel.order = 2;
+      const auto start = std::chrono::steady_clock::now();
+      dm::FemSolver fem(dm::voxelMeshFromSurface(surface, voxel), scenario);
+      fem.solve();
+      ref = fem.interpolate(cloud.positions).displacement;
+      std::fprintf(stderr, "FEM TET10 h=%g: %.1f s (cached in %s)\n", fem_h, since(start), cache.c_str());
+      std::ofstream out(cache, std::ios::binary);
+      out.write(reinterpret_cast<const char*>(ref.data()), static_cast<std::streamsize>(ref.size() * sizeof(Vector3d)));
+    }
+  }
+  if (a.count("steps")) scenario.load_steps = static_cast<int>(num("steps", 1));
+  double ref_norm = 0, ref_max = 0;
+  for (const auto& r : ref) {
+    ref_norm += r.squaredNorm();
+    ref_max = std::max(ref_max, r.norm());
+  }
+
+  std::vector<double> seconds, errors, predict_ms;
+  std::printf("| case | particles | net | Adam its x steps | L-BFGS | seed | time (s) | rel L2 | max err / max |u| | energy (J) | out scale |\n");
+  for (int seed = 1; seed <= seeds; ++seed) {
+    config.seed = seed;
+    dm::DemSolver dem(cloud, scenario, config);
+    const dm::DemReport r = dem.solve();
+    const auto u = dem.predict(cloud.positions);
+    double e = 0, emax = 0;
+    for (std::size_t i = 0; i < u.size(); ++i) {
+      e += (u[i] - ref[i]).squaredNorm();
+      emax = std::max(emax, (u[i] - ref[i]).norm());
+    }
+    seconds.push_back(r.seconds);
+    errors.push_back(std::sqrt(e / ref_norm));
+    std::printf("| %s | %zu | %dx%d %s | %d x %d | %d%s | %d | %.2f | %.4f | %.4f | %.6g | %.3g |\n", which.c_str(),
+                cloud.size(), config.width, config.depth, config.double_precision ? "f64" : "f32", config.adam_iterations,
+                r.load_steps, config.lbfgs_iterations, r.polish_rejected ? " (rejected)" : "", seed, r.seconds,
+                errors.back(), emax / ref_max, r.energy, r.output_scale);
+    // Prediction time for 10k random points inside the body (median of 3).
+    std::mt19937 rng(seed);
+    std::vector<Vector3d> points;
+    if (which == "uniaxial") {
+      std::uniform_real_distribution<double> u01(0, 1);
+      while (points.size() < 10000) points.emplace_back(u01(rng), u01(rng), u01(rng));
+    } else {
+      std::uniform_real_distribution<double> ux(-0.15, 0.15), uy(-0.03, 0.03), uz(0.0, 0.30);
+      while (points.size() < 10000) {
+        const Vector3d p(ux(rng), uy(rng), uz(rng));
+        if (inTbar(p)) points.push_back(p);
+      }
+    }
+    std::vector<double> ms;
+    for (int rep = 0; rep < 3; ++rep) {
+      const auto start = std::chrono::steady_clock::now();
+      const auto v = dem.predict(points);
+      ms.push_back(1e3 * since(start));
+    }
+    predict_ms.push_back(median(ms));
+  }
+  std::printf("median: time %.2f s, rel L2 %.4f (min %.4f, max %.4f), predict 10k %.1f ms\n", median(seconds),
+              median(errors), *std::min_element(errors.begin(), errors.end()),
+              *std::max_element(errors.begin(), errors.end()), median(predict_ms));
+  return 0;
+}

@@ -1,0 +1,46 @@
+#pragma once
+// One entry point for every solver: a particle cloud and a scenario in, a result field (one row
+// per particle, in order) and the run's figures out. Backs `demnerf simulate` and the dem_node.
+
+#include <optional>
+#include <string>
+
+#include "demnerf/core/ply.hpp"
+#include "demnerf/core/scenario.hpp"
+#include "demnerf/mechanics/dem_solver.hpp"
+#include "demnerf/mechanics/fem_solver.hpp"
+#include "demnerf/mechanics/voxel_mesh.hpp"
+
+namespace demnerf::mechanics {
+
+enum class SolverChoice { kDem, kFem, kPinn };
+
+/// "dem" | "fem" | "pinn"; core::Error naming the bad value otherwise.
+SolverChoice parseSolverChoice(const std::string& name);
+const char* solverName(SolverChoice solver);
+
+struct SimulateOptions {
+  DemConfig dem;
+  FemConfig fem;
+  /// FEM mesh: hexes of this size (0: the cube root of the median particle volume), split into
+  /// tetrahedra of voxel.order.
+  VoxelMeshConfig voxel;
+  /// FEM: voxelise this closed surface instead of the cells that hold particles.
+  std::optional<core::TriangleMesh> surface;
+};
+
+struct SimulationOutcome {
+  core::ResultField field;
+  double seconds = 0.0;           ///< wall time of meshing + solving + evaluation at the particles
+  double energy = 0.0;            ///< total potential energy at full load (J)
+  double max_displacement = 0.0;  ///< largest |u| over the particles (m)
+  int mesh_nodes = 0;             ///< FEM only
+  int mesh_elements = 0;          ///< FEM only
+};
+
+/// Solves the scenario on the particles. Throws core::Error for bad input (before any work), a
+/// failed solve, or a solver that is not built (PINN).
+SimulationOutcome simulate(const core::ParticleCloud& cloud, const core::Scenario& scenario, SolverChoice solver,
+                           const SimulateOptions& options = {});
+
+}  // namespace demnerf::mechanics

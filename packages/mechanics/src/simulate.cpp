@@ -1,0 +1,74 @@
+#include "demnerf/mechanics/simulate.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "demnerf/core/error.hpp"
+#include "demnerf/mechanics/boundary_conditions.hpp"
+
+namespace demnerf::mechanics {
+
+SolverChoice parseSolverChoice(const std::string& name) {
+  if (name == "dem") return SolverChoice::kDem;
+  if (name == "fem") return SolverChoice::kFem;
+  if (name == "pinn") return SolverChoice::kPinn;
+  throw core::Error("unknown solver '" + name + "': use dem, fem or pinn");
+}
+
+const char* solverName(SolverChoice solver) {
+  switch (solver) {
+    case SolverChoice::kDem: return "dem";
+    case SolverChoice::kFem: return "fem";
+    case SolverChoice::kPinn: return "pinn";
+  }
+  return "?";
+}
+
+SimulationOutcome simulate(const core::ParticleCloud& cloud, const core::Scenario& scenario, SolverChoice solver,
+                           const SimulateOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  // Every solver checks the same things first, so bad input fails the same way before any work.
+  validateProblem(scenario, cloud);
+  SimulationOutcome out;
+  switch (solver) {
+    case SolverChoice::kDem: {
+      DemSolver dem(cloud, scenario, options.dem);
+      out.energy = dem.solve().energy;
+      out.field = dem.result();
+      break;
+    }
+    case SolverChoice::kFem: {
+      VoxelMeshConfig voxel = options.voxel;
+      TetMesh mesh;
+      if (options.surface) {
+        if (voxel.cell == 0.0) {
+          std::vector<double> v;
+          for (double x : cloud.volumes)
+            if (x > 0) v.push_back(x);
+          std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+          voxel.cell = std::cbrt(v[v.size() / 2]);
+        }
+        mesh = voxelMeshFromSurface(*options.surface, voxel);
+      } else {
+        mesh = voxelMeshFromParticles(cloud, voxel);
+      }
+      out.mesh_nodes = static_cast<int>(mesh.nodes.size());
+      out.mesh_elements = static_cast<int>(mesh.elements.size());
+      FemSolver fem(std::move(mesh), scenario, options.fem);
+      out.energy = fem.solve().energy;
+      const PointField at = fem.interpolate(cloud.positions);
+      out.field.positions = cloud.positions;
+      out.field.displacements = at.displacement;
+      out.field.von_mises = at.von_mises;
+      break;
+    }
+    case SolverChoice::kPinn:
+      throw core::Error("the PINN solver is not built yet in this version of dem_nerf: use --solver dem or fem");
+  }
+  for (const auto& u : out.field.displacements) out.max_displacement = std::max(out.max_displacement, u.norm());
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return out;
+}
+
+}  // namespace demnerf::mechanics

@@ -1,0 +1,168 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "demnerf/core/error.hpp"
+#include "demnerf/mechanics/box_particles.hpp"
+#include "demnerf/mechanics/compare_results.hpp"
+#include "demnerf/mechanics/reference_problems.hpp"
+#include "demnerf/mechanics/simulate.hpp"
+#include "demnerf/mechanics/voxel_mesh.hpp"
+
+namespace dm = demnerf::mechanics;
+namespace core = demnerf::core;
+using Eigen::Vector3d;
+
+namespace {
+
+using dm::boxSurface;
+
+double meshVolume(const dm::TetMesh& mesh) {
+  double total = 0;
+  for (const auto& e : mesh.elements) {
+    double v = 0;
+    dm::barycentricGradients({mesh.nodes[e[0]], mesh.nodes[e[1]], mesh.nodes[e[2]], mesh.nodes[e[3]]}, &v);
+    total += v;
+  }
+  return total;
+}
+
+core::Region box(const Vector3d& center, const Vector3d& size) {
+  core::Region r;
+  r.type = core::Region::Type::kBox;
+  r.center = center;
+  r.size = size;
+  return r;
+}
+
+// Box [0,L]x[0,1]x[0,1] on rollers at x = 0, y = 0, z = 0, pulled by P11 on x = L.
+core::Scenario uniaxial(double p11, double length) {
+  core::Scenario s;
+  s.name = "uniaxial";
+  s.material.youngs_modulus = 1e6;
+  s.material.poisson_ratio = 0.3;
+  for (int axis = 0; axis < 3; ++axis) {
+    core::Fixture f;
+    f.name = std::string("roller_") + "xyz"[axis];
+    Vector3d c(0.5 * length, 0.5, 0.5), size(2 * length, 2, 2);
+    c(axis) = 0.0;
+    size(axis) = 1e-6;
+    f.region = box(c, size);
+    f.constrained = Eigen::Vector3i::Zero();
+    f.constrained(axis) = 1;
+    s.fixtures.push_back(f);
+  }
+  core::Load pull;
+  pull.name = "pull";
+  pull.region = box(Vector3d(length, 0.5, 0.5), Vector3d(1e-6, 2, 2));
+  pull.force = Vector3d(p11, 0, 0);
+  s.loads = {pull};
+  return s;
+}
+
+TEST(VoxelMesh, BoxSurfaceGivesTheBoxExactly) {
+  const core::TriangleMesh surface = boxSurface(Vector3d(-0.1, 0, 0.2), Vector3d(0.2, 0.06, 0.26));
+  EXPECT_TRUE(dm::insideSurface(surface, Vector3d(0.0, 0.03, 0.23)));
+  EXPECT_FALSE(dm::insideSurface(surface, Vector3d(0.3, 0.03, 0.23)));
+  EXPECT_FALSE(dm::insideSurface(surface, Vector3d(0.0, 0.03, 0.27)));
+  dm::VoxelMeshConfig config;
+  config.cell = 0.02;
+  config.order = 1;
+  const dm::TetMesh mesh = dm::voxelMeshFromSurface(surface, config);
+  EXPECT_NEAR(meshVolume(mesh), 0.3 * 0.06 * 0.06, 1e-12);
+  EXPECT_EQ(mesh.elements.size(), 6u * 15 * 3 * 3);
+  config.cell = 0.0;
+  EXPECT_THROW(dm::voxelMeshFromSurface(surface, config), core::Error);
+}
+
+TEST(VoxelMesh, GridParticlesGiveTheirCells) {
+  core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(0.4, 0.2, 0.2), Eigen::Vector3i(4, 2, 2));
+  // Remove one interior cell's particle: its cell must disappear from the mesh.
+  double volume = 0;
+  for (std::size_t i = 0; i < cloud.size(); ++i) volume += cloud.volumes[i];
+  cloud.volumes[0] = 0.0;
+  const dm::TetMesh mesh = dm::voxelMeshFromParticles(cloud, {});
+  EXPECT_EQ(mesh.order, 2);
+  EXPECT_NEAR(meshVolume(mesh), volume - 0.001, 1e-12);
+}
+
+TEST(Simulate, FemOnParticlesReproducesUniaxialTraction) {
+  const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(2, 1, 1), Eigen::Vector3i(4, 2, 2));
+  const core::Scenario s = uniaxial(2e5, 2.0);
+  double b = 0;
+  const double a = dm::uniaxialStretchForStress(*dm::makeMaterial(s.material), 2e5, &b);
+  for (bool with_surface : {false, true}) {
+    dm::SimulateOptions options;
+    options.voxel.order = 1;
+    if (with_surface) {
+      options.surface = boxSurface(Vector3d(0, 0, 0), Vector3d(2, 1, 1));
+      options.voxel.cell = 0.5;
+    }
+    const dm::SimulationOutcome out = dm::simulate(cloud, s, dm::SolverChoice::kFem, options);
+    ASSERT_EQ(out.field.size(), cloud.size());
+    double err = 0, largest = 0;
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      const Vector3d& X = cloud.positions[i];
+      EXPECT_EQ(out.field.positions[i], X);  // same rows, same order
+      const Vector3d exact((a - 1) * X.x(), (b - 1) * X.y(), (b - 1) * X.z());
+      err = std::max(err, (out.field.displacements[i] - exact).norm());
+      largest = std::max(largest, exact.norm());
+    }
+    EXPECT_LT(err, 1e-7 * (a - 1) * 2.0) << (with_surface ? "surface mesh" : "particle cells");
+    EXPECT_NEAR(out.max_displacement, largest, 1e-7);
+    EXPECT_LT(out.energy, 0.0);  // a dead load does positive work: Pi = W - work < 0
+    EXPECT_GT(out.mesh_elements, 0);
+  }
+}
+
+TEST(Simulate, DemGivesOneRowPerParticleInOrder) {
+  const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(3, 3, 3));
+  dm::SimulateOptions options;
+  options.dem.width = 8;
+  options.dem.depth = 1;
+  options.dem.adam_iterations = 30;
+  options.dem.threads = 1;
+  const dm::SimulationOutcome out = dm::simulate(cloud, uniaxial(1e5, 1.0), dm::SolverChoice::kDem, options);
+  ASSERT_EQ(out.field.size(), cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i) EXPECT_EQ(out.field.positions[i], cloud.positions[i]);
+  EXPECT_GT(out.max_displacement, 0.0);
+  EXPECT_TRUE(std::isfinite(out.energy));
+}
+
+TEST(Simulate, PinnIsNotBuiltAndBadInputFailsFirst) {
+  const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(2, 2, 2));
+  EXPECT_THROW(dm::simulate(cloud, uniaxial(1e5, 1.0), dm::SolverChoice::kPinn), core::Error);
+  EXPECT_THROW(dm::parseSolverChoice("xfem"), core::Error);
+  core::Scenario s = uniaxial(1e5, 1.0);
+  s.fixtures.clear();
+  EXPECT_THROW(dm::simulate(cloud, s, dm::SolverChoice::kFem), core::Error);
+}
+
+TEST(CompareResults, ErrorsAndRefusals) {
+  core::ResultField ref;
+  for (int i = 0; i < 4; ++i) {
+    ref.positions.emplace_back(i, 0, 0);
+    ref.displacements.emplace_back(0, 0.1 * i, 0);
+    ref.von_mises.push_back(1.0);
+  }
+  core::ResultField r = ref;
+  EXPECT_DOUBLE_EQ(dm::compareResults(r, ref).rel_l2, 0.0);
+  for (auto& u : r.displacements) u *= 1.1;
+  const dm::ResultComparison c = dm::compareResults(r, ref);
+  EXPECT_NEAR(c.rel_l2, 0.1, 1e-12);
+  EXPECT_NEAR(c.max_error, 0.03, 1e-12);
+  EXPECT_EQ(c.rows, 4u);
+  core::ResultField shorter = ref;
+  shorter.resize(3);
+  EXPECT_THROW(dm::compareResults(shorter, ref), core::Error);
+  core::ResultField moved = ref;
+  moved.positions[2].x() += 1e-4;  // 3.3e-5 of the bounding box
+  EXPECT_THROW(dm::compareResults(moved, ref), core::Error);
+  moved.positions[2].x() = 2.0 + 1e-9;  // round-off of a PLY float round trip is fine
+  EXPECT_NO_THROW(dm::compareResults(moved, ref));
+  core::ResultField zero = ref;
+  for (auto& u : zero.displacements) u.setZero();
+  EXPECT_THROW(dm::compareResults(r, zero), core::Error);
+}
+
+}  // namespace

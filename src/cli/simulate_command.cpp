@@ -1,0 +1,65 @@
+// `demnerf simulate`: quasi-static deformation of a particle cloud under a scenario, by the Deep
+// Energy Method or the FEM baseline (packages/mechanics). Writes one result row per particle.
+
+#include "command.hpp"
+#include "commands.hpp"
+#include "demnerf/core/ply.hpp"
+#include "demnerf/core/scenario.hpp"
+#include "demnerf/mechanics/simulate.hpp"
+
+namespace demnerf::cli {
+namespace {
+
+Figures runSimulate(const Arguments& arguments) {
+  arguments.rejectUnknown({"particles", "scenario", "solver", "mesh", "out", "cell", "order", "iterations", "width",
+                           "depth", "boundary", "threads", "json", "quiet"});
+  const std::string solver_name = arguments.text("solver", "dem");
+  if (solver_name != "dem" && solver_name != "fem" && solver_name != "pinn")
+    throw UsageError("option --solver expects dem, fem or pinn, got '" + solver_name + "'");
+  const mechanics::SolverChoice solver = mechanics::parseSolverChoice(solver_name);
+  if (solver == mechanics::SolverChoice::kPinn)
+    throw NotBuiltYet("the PINN solver is not built yet in this version of dem_nerf: use --solver dem or fem");
+  const std::string out_path = arguments.text("out");
+  const core::ParticleCloud cloud = core::readParticles(arguments.text("particles"));
+  const core::Scenario scenario = core::loadScenario(arguments.text("scenario"));
+
+  mechanics::SimulateOptions options;
+  options.voxel.cell = arguments.number("cell", 0.0);
+  options.voxel.order = arguments.integer("order", 2);
+  if (options.voxel.order != 1 && options.voxel.order != 2)
+    throw UsageError("option --order expects 1 (TET4) or 2 (TET10), got " + std::to_string(options.voxel.order));
+  if (options.voxel.cell < 0) throw UsageError("option --cell expects a positive length in metres (0: automatic)");
+  if (arguments.has("mesh")) options.surface = core::readMesh(arguments.text("mesh"));
+  options.dem.adam_iterations = arguments.integer("iterations", options.dem.adam_iterations);
+  options.dem.width = arguments.integer("width", options.dem.width);
+  options.dem.depth = arguments.integer("depth", options.dem.depth);
+  options.dem.threads = arguments.integer("threads", 0);
+  const std::string boundary = arguments.text("boundary", "exact");
+  if (boundary == "penalty") options.dem.boundary = mechanics::DemConfig::Boundary::kPenalty;
+  else if (boundary != "exact") throw UsageError("option --boundary expects exact or penalty, got '" + boundary + "'");
+
+  const mechanics::SimulationOutcome outcome = mechanics::simulate(cloud, scenario, solver, options);
+  core::writeResult(out_path, outcome.field);
+  Figures figures{{"seconds", outcome.seconds},
+                  {"energy", outcome.energy},
+                  {"max_displacement", outcome.max_displacement},
+                  {"particles", cloud.size()},
+                  {"solver", solver_name},
+                  {"out", out_path}};
+  if (solver == mechanics::SolverChoice::kFem) {
+    figures["mesh_nodes"] = outcome.mesh_nodes;
+    figures["mesh_elements"] = outcome.mesh_elements;
+  }
+  return figures;
+}
+
+}  // namespace
+
+const Command kSimulateCommand = {
+    "simulate", "quasi-static deformation of a particle cloud",
+    "--particles P.ply --scenario S.yaml --solver dem|fem|pinn [--mesh M.ply] --out R.ply "
+    "[--cell H] [--order 1|2] [--iterations N] [--width W] [--depth D] [--boundary exact|penalty] "
+    "[--threads T] [--json]",
+    runSimulate};
+
+}  // namespace demnerf::cli

@@ -1,0 +1,122 @@
+// rostest node: dem_node turns a cantilever's particles, its clamp and a wrench resolved through tf
+// into a displaced cloud: the tip follows the force and the clamped particles stay put.
+
+#include <dem_nerf/TrainingStatus.h>
+#include <geometry_msgs/WrenchStamped.h>
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <sensor_msgs/point_cloud2_iterator.h>
+#include <tf2_ros/static_transform_broadcaster.h>
+
+#include <cstdio>
+#include <mutex>
+#include <optional>
+
+#include "conversions/cloud_conversions.hpp"
+
+namespace {
+
+// A 0.1 x 0.02 x 0.02 m bar sampled every 5 mm; the outer layer carries normals and areas.
+demnerf::core::ParticleCloud barParticles() {
+  const double h = 0.005;
+  demnerf::core::ParticleCloud cloud;
+  for (int i = 0; i <= 20; ++i) {
+    for (int j = 0; j <= 4; ++j) {
+      for (int k = 0; k <= 4; ++k) {
+        const Eigen::Vector3d p(i * h, -0.01 + j * h, -0.01 + k * h);
+        Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+        if (i == 0) normal.x() = -1;
+        if (i == 20) normal.x() = 1;
+        if (j == 0) normal.y() = -1;
+        if (j == 4) normal.y() = 1;
+        if (k == 0) normal.z() = -1;
+        if (k == 4) normal.z() = 1;
+        cloud.positions.push_back(p);
+        cloud.volumes.push_back(h * h * h);
+        const bool surface = !normal.isZero();
+        cloud.normals.push_back(surface ? Eigen::Vector3d(normal.normalized()) : normal);
+        cloud.areas.push_back(surface ? h * h : 0.0);
+        cloud.colors.push_back({200, 200, 200});
+      }
+    }
+  }
+  return cloud;
+}
+
+TEST(DemNodeWrench, TheTipFollowsTheForceAndTheClampHolds) {
+  ros::NodeHandle node;
+  std::mutex mutex;
+  std::optional<sensor_msgs::PointCloud2> displaced;
+  auto subscriber = node.subscribe<sensor_msgs::PointCloud2>(
+      "/dem_node/displaced", 1, [&](const sensor_msgs::PointCloud2ConstPtr& message) {
+        std::lock_guard<std::mutex> lock(mutex);
+        displaced = *message;
+      });
+  tf2_ros::StaticTransformBroadcaster broadcaster;
+  geometry_msgs::TransformStamped tool;
+  tool.header.stamp = ros::Time::now();
+  tool.header.frame_id = "world";
+  tool.child_frame_id = "tool";
+  tool.transform.translation.x = 0.1;
+  tool.transform.rotation.w = 1.0;
+  broadcaster.sendTransform(tool);
+
+  ros::Publisher particles = node.advertise<sensor_msgs::PointCloud2>("/particles", 1, true);
+  std_msgs::Header header;
+  header.frame_id = "world";
+  header.stamp = ros::Time::now();
+  const demnerf::core::ParticleCloud bar = barParticles();
+  particles.publish(dem_nerf::toPointCloud2(bar, header));
+  ros::Publisher wrenches = node.advertise<geometry_msgs::WrenchStamped>("/dem_node/wrench", 1, true);
+  ros::WallDuration(1.0).sleep();  // let dem_node take the particles first
+  geometry_msgs::WrenchStamped wrench;
+  wrench.header.frame_id = "tool";
+  wrench.header.stamp = ros::Time(0);  // latest tf
+  wrench.wrench.force.z = -0.002;  // small: a few mm, where the tip moves along the force
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    displaced.reset();  // only the answer to this wrench counts
+  }
+  wrenches.publish(wrench);
+
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(60);
+  while (ros::ok() && ros::WallTime::now() < deadline) {
+    ros::spinOnce();
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (displaced) break;
+    }
+    ros::WallDuration(0.05).sleep();
+  }
+  std::lock_guard<std::mutex> lock(mutex);
+  ASSERT_TRUE(displaced.has_value()) << "no displaced cloud within 60 s";
+  ASSERT_EQ(static_cast<std::size_t>(displaced->width) * displaced->height, bar.size());
+  sensor_msgs::PointCloud2ConstIterator<float> u(*displaced, "ux");
+  double tip_uz = 0.0, tip_lateral = 0.0, clamp_max = 0.0;
+  int tip_count = 0;
+  for (std::size_t i = 0; i < bar.size(); ++i, ++u) {
+    const Eigen::Vector3d displacement(u[0], u[1], u[2]);
+    if (bar.positions[i].x() < 1e-9) clamp_max = std::max(clamp_max, displacement.norm());
+    if (bar.positions[i].x() > 0.1 - 1e-9) {
+      tip_uz += displacement.z();
+      tip_lateral += std::abs(displacement.x()) + std::abs(displacement.y());
+      ++tip_count;
+    }
+  }
+  tip_uz /= tip_count;
+  tip_lateral /= tip_count;
+  EXPECT_LT(tip_uz, -1e-5) << "the tip should move down with the -z force";
+  std::printf("cantilever tip: uz %.3g m, mean |ux|+|uy| %.3g m\n", tip_uz, tip_lateral);
+  EXPECT_LT(tip_lateral, 0.3 * std::abs(tip_uz));
+  EXPECT_LT(clamp_max, 1e-6) << "clamped particles moved";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "dem_node_wrench_check");
+  ros::NodeHandle node;
+  return RUN_ALL_TESTS();
+}
