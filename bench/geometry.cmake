@@ -10,7 +10,7 @@ foreach(tool geometry_sampling_bench geometry_samplers_figure)
   target_link_libraries(${tool} PRIVATE demnerf_geometry nlohmann_json::nlohmann_json)
   target_compile_definitions(${tool} PRIVATE DEMNERF_SHARED_DIR="${DEMNERF_ROOT_DIR}/../shared"
                                              DEMNERF_SOURCE_DIR="${DEMNERF_ROOT_DIR}")
-  set_target_properties(${tool} PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin")
+  set_target_properties(${tool} PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin/bench")
 endforeach()
 
 # geometry_tbar_extraction: trains (or loads) a NeRF of the synthetic T-bar and measures the
@@ -29,7 +29,7 @@ if(NOT COMMAND demnerf_geometry_tbar_bench)
     add_executable(geometry_tbar_extraction ${DEMNERF_ROOT_DIR}/bench/geometry_tbar_extraction.cpp)
     target_link_libraries(geometry_tbar_extraction PRIVATE demnerf_geometry demnerf_render demnerf_nerf
                                                            nlohmann_json::nlohmann_json)
-    set_target_properties(geometry_tbar_extraction PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin")
+    set_target_properties(geometry_tbar_extraction PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin/bench")
   endfunction()
 endif()
 if(CMAKE_SOURCE_DIR STREQUAL DEMNERF_ROOT_DIR)

@@ -1,17 +1,36 @@
 #!/usr/bin/env bash
-# `make bench`: runs every benchmark built under <build>/bin/bench and prints their figures.
+# `make bench`: the benchmarks under bench/, each printing its figures (timings are wall time on
+# this machine; run on a quiet machine and quote the median of the runs they print).
+# BENCH="name ..." runs a subset.
 set -uo pipefail
 BUILD_DIR=${1:-build}
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
-shopt -s nullglob
-benches=("$ROOT/$BUILD_DIR"/bin/bench/*)
-if [ ${#benches[@]} -eq 0 ]; then
-  echo "no benchmarks are built yet"
-  exit 0
-fi
+cd "$ROOT"
+BIN="$ROOT/$BUILD_DIR/bin/bench"
+OUT="$ROOT/output/bench"
+mkdir -p "$OUT"
+TBAR="$ROOT/output/tbar"
+[ -f "$TBAR/transforms_train.json" ] || "$ROOT/$BUILD_DIR/bin/demnerf" synth --scene tbar --out "$TBAR" > /dev/null
+
+declare -A COMMANDS=(
+  [render_synth_bench]="--repeat 3 --out $OUT/synth"
+  [geometry_sampling_bench]=""
+  [nerf_kernels]=""
+  [nerf_train]="--data $TBAR --seconds 60 --eval-every 10 --csv $OUT/nerf_tbar.csv --plot $OUT/nerf_tbar.png"
+  [geometry_tbar_extraction]="--work $OUT/extraction --resolution 192 --repeat 3"
+  [mechanics_cook]=""
+  [mechanics_dem]="case=uniaxial seeds=3 width=16 depth=2 iters=1000 lr=1e-2"
+)
+ORDER=(render_synth_bench geometry_sampling_bench nerf_kernels nerf_train geometry_tbar_extraction mechanics_cook mechanics_dem)
 status=0
-for bench in "${benches[@]}"; do
-  echo "== $(basename "$bench")"
-  "$bench" || status=1
+for name in ${BENCH:-${ORDER[@]}}; do
+  if [ ! -x "$BIN/$name" ]; then
+    echo "== $name: not built (make bench builds it)"
+    status=1
+    continue
+  fi
+  echo "== $name ${COMMANDS[$name]:-}"
+  # shellcheck disable=SC2086
+  "$BIN/$name" ${COMMANDS[$name]:-} || status=1
 done
 exit $status
