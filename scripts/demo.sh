@@ -5,6 +5,7 @@ set -uo pipefail
 BUILD_DIR=${1:-build}
 DATA=${2:-}
 SOLVER=${SOLVER:-fem}          # dem | fem: the DEM on the T-bar still takes minutes on 2 cores
+FEM_ORDER=${FEM_ORDER:-1}      # 1: linear tets (seconds); 2: quadratic (minutes on the T-bar)
 TRAIN_SECONDS=${TRAIN_SECONDS:-60}
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 cd "$ROOT"
@@ -45,9 +46,12 @@ stage info "$CLI" info --data "$DATA"
 stage train "$CLI" train --data "$DATA" --out "$OUT/model.nerf" --seconds "$TRAIN_SECONDS"
 stage eval "$CLI" eval --model "$OUT/model.nerf" --data "$DATA" --split test
 stage extract "$CLI" extract --model "$OUT/model.nerf" --mesh "$OUT/mesh.ply"
-stage sample "$CLI" sample --mesh "$OUT/mesh.ply" --method grid --spacing 0.01 --out "$OUT/particles.ply"
+# 6 mm: at 1 cm the deformed renderer's tetrahedral embedding of grid particles breaks apart.
+stage sample "$CLI" sample --mesh "$OUT/mesh.ply" --method grid --spacing 0.006 --out "$OUT/particles.ply"
+SOLVER_OPTIONS=()
+[ "$SOLVER" = fem ] && SOLVER_OPTIONS=(--order "$FEM_ORDER")
 stage simulate "$CLI" simulate --particles "$OUT/particles.ply" --scenario "$SCENARIO" --solver "$SOLVER" \
-  --out "$OUT/displaced.ply"
+  "${SOLVER_OPTIONS[@]}" --out "$OUT/displaced.ply"
 stage render "$CLI" render --model "$OUT/model.nerf" --data "$DATA" --split test --out "$OUT/rendered" \
   --result "$OUT/displaced.ply"
 if $BUNDLED && [ -f "$OUT/displaced.ply" ]; then
