@@ -42,13 +42,9 @@ Figures runRender(const Arguments& arguments) {
         deformed ? render::renderDeformed(*deformed, frames[i].camera, frames[i].world_from_camera)
                  : nerf::renderImage(model, frames[i].camera, frames[i].world_from_camera);
     seconds += image.seconds;
-    cv::Mat rgba(image.color.size(), CV_32FC4);
-    const int from_to[] = {0, 0, 1, 1, 2, 2, 3, 3};
-    const cv::Mat sources[] = {image.color, image.opacity};
-    cv::mixChannels(sources, 2, &rgba, 1, from_to, 4);
     char name[64];
     std::snprintf(name, sizeof(name), "r_%03zu.png", i);
-    core::writeImagePng((std::filesystem::path(out) / name).string(), rgba);
+    core::writeImagePng((std::filesystem::path(out) / name).string(), nerf::toRgba(image));
   }
   return Figures{{"views", frames.size()},
                  {"seconds_per_view", frames.empty() ? 0.0 : seconds / static_cast<double>(frames.size())},

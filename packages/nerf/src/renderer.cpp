@@ -54,4 +54,12 @@ RenderedImage renderImage(const NerfModel& model, const core::PinholeCamera& cam
                      Eigen::Vector3f(static_cast<float>(b[0]), static_cast<float>(b[1]), static_cast<float>(b[2])));
 }
 
+cv::Mat toRgba(const RenderedImage& image) {
+  cv::Mat rgba(image.color.size(), CV_32FC4);
+  const int from_to[] = {0, 0, 1, 1, 2, 2, 3, 3};
+  const cv::Mat sources[] = {image.color, image.opacity};
+  cv::mixChannels(sources, 2, &rgba, 1, from_to, 4);
+  return rgba;
+}
+
 }  // namespace demnerf::nerf

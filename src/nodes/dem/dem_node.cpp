@@ -9,6 +9,7 @@
 #include "conversions/cloud_conversions.hpp"
 #include "conversions/region_conversions.hpp"
 #include "demnerf/core/error.hpp"
+#include "demnerf/geometry/regions.hpp"
 
 namespace dem_nerf {
 namespace {
@@ -203,11 +204,7 @@ demnerf::core::Scenario DemNode::scenarioFor(const dem_nerf::LoadCase& load_case
   if (!body_force.isZero()) scenario.body_force = body_force;
   scenario.validate("load case");
   for (const auto& fixture : scenario.fixtures) {
-    bool selects = false;
-    for (const auto& p : particles_->positions) selects = selects || fixture.region.contains(p);
-    if (!selects) {
-      throw Error("fixture '" + fixture.name + "' selects no particles: region " + fixture.region.describe());
-    }
+    demnerf::geometry::selectParticles(*particles_, fixture.region, "fixture '" + fixture.name + "'");
   }
   return scenario;
 }

@@ -66,12 +66,8 @@ demnerf::nerf::Box sceneBox(const NerfNodeConfig& config, const std::vector<demn
 }
 
 sensor_msgs::Image toImageMessage(const demnerf::nerf::RenderedImage& image, const std_msgs::Header& header) {
-  cv::Mat rgba(image.color.size(), CV_32FC4);
-  const int from_to[] = {0, 0, 1, 1, 2, 2, 3, 3};
-  const cv::Mat sources[] = {image.color, image.opacity};
-  cv::mixChannels(sources, 2, &rgba, 1, from_to, 4);
   cv::Mat bytes;
-  rgba.convertTo(bytes, CV_8UC4, 255.0);
+  demnerf::nerf::toRgba(image).convertTo(bytes, CV_8UC4, 255.0);
   return *cv_bridge::CvImage(header, sensor_msgs::image_encodings::RGBA8, bytes).toImageMsg();
 }
 

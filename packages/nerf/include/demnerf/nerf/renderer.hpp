@@ -17,6 +17,9 @@ struct RenderedImage {
   std::int64_t samples = 0;
 };
 
+/// Colour and opacity as one CV_32FC4 RGBA image (for PNG files and image messages).
+cv::Mat toRgba(const RenderedImage& image);
+
 /// world_from_camera is the optical frame (z forward, y down). background: RGB in [0, 1].
 RenderedImage renderImage(const NerfModel& model, const core::PinholeCamera& camera,
                           const Eigen::Isometry3d& world_from_camera, const Eigen::Vector3f& background);

@@ -1,0 +1,65 @@
+#pragma once
+// What the mechanics benchmarks share: the T-bar of `demnerf synth --scene tbar` as particles,
+// and small timing helpers.
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <vector>
+
+#include "demnerf/core/ply.hpp"
+
+namespace demnerf::bench {
+
+using Eigen::Vector3d;
+namespace core = demnerf::core;
+
+/// Leg 0.06 x 0.06 x 0.24 on z = 0, bar 0.30 x 0.06 x 0.06 on top.
+inline bool inTbar(const Eigen::Vector3d& p) {
+  const bool leg = std::abs(p.x()) < 0.03 && std::abs(p.y()) < 0.03 && p.z() > 0 && p.z() < 0.24;
+  const bool bar = std::abs(p.x()) < 0.15 && std::abs(p.y()) < 0.03 && p.z() >= 0.24 && p.z() < 0.30;
+  return leg || bar;
+}
+
+// Midpoint-rule particles of the T-bar on cells of size h (h must divide 0.03 and 0.06): one
+// interior particle per cell, one surface particle per boundary cell face (area h^2, volume 0).
+inline core::ParticleCloud tbarParticles(double h) {
+  core::ParticleCloud cloud;
+  const Vector3d lo(-0.15, -0.03, 0.0);
+  const Eigen::Vector3i n(static_cast<int>(std::lround(0.30 / h)), static_cast<int>(std::lround(0.06 / h)),
+                          static_cast<int>(std::lround(0.30 / h)));
+  auto centre = [&](int i, int j, int k) -> Vector3d { return lo + h * Vector3d(i + 0.5, j + 0.5, k + 0.5); };
+  auto add = [&](const Vector3d& x, double volume, const Vector3d& normal, double area) {
+    cloud.positions.push_back(x);
+    cloud.volumes.push_back(volume);
+    cloud.normals.push_back(normal);
+    cloud.areas.push_back(area);
+    cloud.colors.push_back({200, 200, 200});
+  };
+  for (int k = 0; k < n(2); ++k)
+    for (int j = 0; j < n(1); ++j)
+      for (int i = 0; i < n(0); ++i) {
+        const Vector3d c = centre(i, j, k);
+        if (!inTbar(c)) continue;
+        add(c, h * h * h, Vector3d::Zero(), 0.0);
+        for (int a = 0; a < 3; ++a)
+          for (int s : {-1, 1}) {
+            Vector3d d = Vector3d::Zero();
+            d(a) = s;
+            if (!inTbar(c + h * d)) add(c + 0.5 * h * d, 0.0, d, h * h);
+          }
+      }
+  return cloud;
+}
+
+inline double since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+inline double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace demnerf::bench
