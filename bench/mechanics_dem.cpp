@@ -4,6 +4,7 @@
 //   case=uniaxial|tbar  iters=N lr=R final=RATIO lbfgs=N width=W depth=D threads=T jitter=0|1
 //   band=CELLS steps=LOAD_STEPS cells=N (uniaxial) h=M (T-bar particle cell) fem_h=M (T-bar FEM)
 //   fem_cache=PATH seeds=N double=0|1 verbose=0|1 activation=tanh|softplus|...
+//   newton=0|1 newton_every=N newton_its=N (output-layer Newton, DemConfig::output_newton)
 // Prints one markdown row per seed and the median time / error.
 
 #include <algorithm>
@@ -97,6 +98,9 @@ int main(int argc, char** argv) {
   config.polish_max_energy_drop = num("drop", config.polish_max_energy_drop);
   config.polish_max_growth = num("growth", config.polish_max_growth);
   config.lbfgs_history = static_cast<int>(num("history", config.lbfgs_history));
+  config.output_newton = num("newton", config.output_newton ? 1 : 0) != 0;
+  config.newton_every = static_cast<int>(num("newton_every", config.newton_every));
+  config.newton_iterations = static_cast<int>(num("newton_its", config.newton_iterations));
   if (a.count("activation")) config.activation = a["activation"];
   if (a.count("boundary") && a["boundary"] == "penalty") config.boundary = dm::DemConfig::Boundary::kPenalty;
   const int seeds = static_cast<int>(num("seeds", 3));

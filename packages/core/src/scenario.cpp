@@ -236,4 +236,71 @@ Scenario loadScenario(const std::string& path) {
   return parseScenario(text.str(), path);
 }
 
+namespace {
+
+void emitVector(YAML::Emitter& out, const Eigen::Vector3d& v) {
+  out << YAML::Flow << YAML::BeginSeq << v.x() << v.y() << v.z() << YAML::EndSeq;
+}
+
+void emitRegion(YAML::Emitter& out, const Region& region) {
+  out << YAML::Key << "region" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "type" << YAML::Value << Region::typeName(region.type);
+  out << YAML::Key << "center" << YAML::Value;
+  emitVector(out, region.center);
+  switch (region.type) {
+    case Region::Type::kBox:
+      out << YAML::Key << "size" << YAML::Value;
+      emitVector(out, region.size);
+      break;
+    case Region::Type::kSphere:
+      out << YAML::Key << "radius" << YAML::Value << region.radius;
+      break;
+    case Region::Type::kHalfspace:
+      out << YAML::Key << "normal" << YAML::Value;
+      emitVector(out, region.normal);
+      break;
+  }
+  out << YAML::EndMap;
+}
+
+}  // namespace
+
+std::string toYaml(const Scenario& scenario) {
+  YAML::Emitter out;
+  out.SetDoublePrecision(17);
+  out << YAML::BeginMap;
+  out << YAML::Key << "name" << YAML::Value << scenario.name;
+  out << YAML::Key << "material" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "model" << YAML::Value << scenario.material.model;
+  out << YAML::Key << "youngs_modulus" << YAML::Value << scenario.material.youngs_modulus;
+  out << YAML::Key << "poisson_ratio" << YAML::Value << scenario.material.poisson_ratio;
+  out << YAML::Key << "density" << YAML::Value << scenario.material.density;
+  out << YAML::EndMap;
+  out << YAML::Key << "body_force" << YAML::Value;
+  emitVector(out, scenario.body_force);
+  out << YAML::Key << "load_steps" << YAML::Value << scenario.load_steps;
+  out << YAML::Key << "fixtures" << YAML::Value << YAML::BeginSeq;
+  for (const Fixture& f : scenario.fixtures) {
+    out << YAML::BeginMap << YAML::Key << "name" << YAML::Value << f.name;
+    emitRegion(out, f.region);
+    out << YAML::Key << "displacement" << YAML::Value;
+    emitVector(out, f.displacement);
+    out << YAML::Key << "constrained" << YAML::Value << YAML::Flow << YAML::BeginSeq << (f.constrained.x() != 0)
+        << (f.constrained.y() != 0) << (f.constrained.z() != 0) << YAML::EndSeq << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+  out << YAML::Key << "loads" << YAML::Value << YAML::BeginSeq;
+  for (const Load& l : scenario.loads) {
+    out << YAML::BeginMap << YAML::Key << "name" << YAML::Value << l.name;
+    emitRegion(out, l.region);
+    out << YAML::Key << "force" << YAML::Value;
+    emitVector(out, l.force);
+    out << YAML::Key << "torque" << YAML::Value;
+    emitVector(out, l.torque);
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
+}
+
 }  // namespace demnerf::core

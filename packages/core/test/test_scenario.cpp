@@ -86,3 +86,32 @@ TEST(Scenario, RegionDescriptionsForMessages) {
   box.size = {0.1, 0.1, 0.01};
   EXPECT_EQ(box.describe(), "box center (0,0,0) size (0.1,0.1,0.01)");
 }
+
+TEST(Scenario, YamlRoundTripKeepsEveryValue) {
+  Scenario a = parseScenario(kTwist);
+  a.material.youngs_modulus = 123456.78901234567;  // needs all 17 digits to survive
+  const Scenario b = parseScenario(toYaml(a), "round trip");
+  EXPECT_EQ(b.name, a.name);
+  EXPECT_EQ(b.material.model, a.material.model);
+  EXPECT_EQ(b.material.youngs_modulus, a.material.youngs_modulus);
+  EXPECT_EQ(b.material.poisson_ratio, a.material.poisson_ratio);
+  EXPECT_EQ(b.body_force, a.body_force);
+  EXPECT_EQ(b.load_steps, a.load_steps);
+  ASSERT_EQ(b.fixtures.size(), a.fixtures.size());
+  for (std::size_t i = 0; i < a.fixtures.size(); ++i) {
+    EXPECT_EQ(b.fixtures[i].name, a.fixtures[i].name);
+    EXPECT_EQ(b.fixtures[i].region.type, a.fixtures[i].region.type);
+    EXPECT_EQ(b.fixtures[i].region.center, a.fixtures[i].region.center);
+    EXPECT_EQ(b.fixtures[i].region.size, a.fixtures[i].region.size);
+    EXPECT_EQ(b.fixtures[i].region.normal, a.fixtures[i].region.normal);
+    EXPECT_EQ(b.fixtures[i].constrained, a.fixtures[i].constrained);
+    EXPECT_EQ(b.fixtures[i].displacement, a.fixtures[i].displacement);
+  }
+  ASSERT_EQ(b.loads.size(), 1u);
+  EXPECT_EQ(b.loads[0].region.radius, a.loads[0].region.radius);
+  EXPECT_EQ(b.loads[0].force, a.loads[0].force);
+  EXPECT_EQ(b.loads[0].torque, a.loads[0].torque);
+  // A scenario without loads (fixtures and prescribed displacements only) round-trips too.
+  a.loads.clear();
+  EXPECT_TRUE(parseScenario(toYaml(a)).loads.empty());
+}

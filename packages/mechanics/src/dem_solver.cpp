@@ -19,6 +19,7 @@
 #include "demnerf/mechanics/boundary_conditions.hpp"
 #include "demnerf/mechanics/dirichlet_lift.hpp"
 #include "demnerf/mechanics/material.hpp"
+#include "demnerf/mechanics/output_layer_newton.hpp"
 #include "demnerf/mechanics/particle_quadrature.hpp"
 
 namespace demnerf::mechanics {
@@ -66,6 +67,13 @@ void keepLargeAllocationsInHeap() {
   (void)done;
 }
 
+// Row-major tensor (rows x cols) -> Eigen, in double.
+Eigen::MatrixXd toEigen(const Tensor& t) {
+  const Tensor c = t.to(torch::kFloat64).contiguous();
+  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  return Eigen::Map<const RowMajor>(c.data_ptr<double>(), c.size(0), c.size(1));
+}
+
 Tensor det3(const Tensor& F) {
   auto f = [&](int i, int j) { return F.select(1, i).select(1, j); };
   return f(0, 0) * (f(1, 1) * f(2, 2) - f(1, 2) * f(2, 1)) - f(0, 1) * (f(1, 0) * f(2, 2) - f(1, 2) * f(2, 0)) +
@@ -96,6 +104,7 @@ struct DemSolver::Impl {
   Tensor xc, fixed_value, fixed_mask;
   Tensor eye3, center_t;
   double fraction = 0.0;  // load fraction the network currently represents
+  double load_input_scale = 1.0;  // parametric: largest |load fraction| of the trained range
   bool rescaled = false;  // the output amplitude was fitted (first solve only)
   std::vector<Eigen::Vector3d> last_good_positions;
 
@@ -125,30 +134,45 @@ struct DemSolver::Impl {
     return torch::cos(a);
   }
 
-  // z(X) and, with `jacobian`, dz[n, k, i] = d z_i / d X_k by forward-mode propagation through
-  // the layers (cheaper than three reverse passes with create_graph, and differentiable).
-  std::pair<Tensor, Tensor> network(const Tensor& x, bool jacobian) const {
+  // The last hidden layer's activations h(X) and, with `jacobian`, dh[n, k, m] = d h_m / d X_k by
+  // forward-mode propagation through the layers (cheaper than three reverse passes with
+  // create_graph, and differentiable).
+  // In parametric mode the load fraction is a fourth input, normalised by the range's largest
+  // magnitude.
+  std::pair<Tensor, Tensor> hidden(const Tensor& x, bool jacobian, double scale) const {
     Tensor h = normalise(x), dh;
-    const std::size_t L = weights.size();
-    for (std::size_t l = 0; l < L; ++l) {
+    if (config.parametric)
+      h = torch::cat({h, torch::full({x.size(0), 1}, scale / load_input_scale, h.options())}, 1);
+    for (std::size_t l = 0; l + 1 < weights.size(); ++l) {
       const Tensor a = torch::addmm(biases[l], h, weights[l].t());
       if (jacobian) {
-        dh = l == 0 ? (weights[0].t() * inv_half.unsqueeze(1)).unsqueeze(0).expand({x.size(0), 3, weights[0].size(0)})
+        dh = l == 0 ? (weights[0].narrow(1, 0, 3).t() * inv_half.unsqueeze(1))
+                          .unsqueeze(0)
+                          .expand({x.size(0), 3, weights[0].size(0)})
                     : torch::matmul(dh, weights[l].t());
       }
-      if (l + 1 == L) return {a, dh};
       h = activate(a);
       if (jacobian) dh = dh * activateDerivative(a, h).unsqueeze(1);
     }
     return {h, dh};
   }
 
+  // z(X) = W h(X) + b and, with `jacobian`, dz[n, k, i] = d z_i / d X_k.
+  std::pair<Tensor, Tensor> network(const Tensor& x, bool jacobian, double scale) const {
+    auto [h, dh] = hidden(x, jacobian, scale);
+    const Tensor& W = weights.back();
+    return {torch::addmm(biases.back(), h, W.t()), jacobian ? torch::matmul(dh, W.t()) : Tensor()};
+  }
+
   // u and (optionally) Grad u [n, i, k] for a subset with its lift tensors (g, grad_g, D, grad_D).
   std::pair<Tensor, Tensor> displacement(const Tensor& x, const Tensor* lift, bool gradient, double scale) const {
-    auto [z, dz] = network(x, gradient);
-    z = z * out_scale;
+    auto [z, dz] = network(x, gradient, scale);
+    // Parametric: u = s (g + D z(X, s)), so the rest state at s = 0 holds exactly and z stays O(1)
+    // over the whole load range.
+    const double amplitude = config.parametric ? out_scale * scale : out_scale;
+    z = z * amplitude;
     Tensor gu;
-    if (gradient) gu = dz.transpose(1, 2) * out_scale;
+    if (gradient) gu = dz.transpose(1, 2) * amplitude;
     if (config.boundary == DemConfig::Boundary::kPenalty || !lift) return {z, gu};
     const Tensor u = scale * lift[0] + lift[2] * z;
     if (gradient) gu = scale * lift[1] + lift[3] * z.unsqueeze(2) + lift[2].unsqueeze(2) * gu;
@@ -286,17 +310,116 @@ struct DemSolver::Impl {
     return u.norm(2, 1).max().item<double>();
   }
 
+  bool newtonEnabled() const {
+    return config.output_newton && config.boundary == DemConfig::Boundary::kExact && !config.parametric;
+  }
+
+  // Features [h, 1] of the last hidden layer at points (rows), and their X-gradients (3 rows each).
+  void basisAt(const Tensor& x, double scale, Eigen::MatrixXd& h, Eigen::MatrixXd* dh) const {
+    auto [ht, dht] = hidden(x, dh != nullptr, scale);
+    const long n = ht.size(0), k = ht.size(1);
+    h.resize(n, k + 1);
+    h.leftCols(k) = toEigen(ht);
+    h.col(k).setOnes();
+    if (!dh) return;
+    dh->resize(3 * n, k + 1);
+    dh->leftCols(k) = toEigen(dht.reshape({3 * n, k}));
+    dh->col(k).setZero();
+  }
+
+  // Newton on the output layer with the hidden layers frozen (output_layer_newton.hpp): the best
+  // field in the network's current basis, at the nominal quadrature points. The output scale is
+  // kept (rescaling the weights to O(1) made Adam's next steps invert particles on the T-bar).
+  void solveOutputLayer(double scale) {
+    torch::NoGradGuard guard;
+    OutputLayerProblem pb;
+    basisAt(xv, scale, pb.h, &pb.dh);
+    const long n = xv.size(0), m = pb.h.cols();
+    pb.g = toEigen(lift_v[0]);
+    pb.D = toEigen(lift_v[2]);
+    pb.grad_g = toEigen(lift_v[1].reshape({n, 9}));
+    pb.grad_D = toEigen(lift_v[3].reshape({n, 9}));
+    pb.volume = toEigen(vol.unsqueeze(1)).col(0);
+    pb.body = toEigen(body);
+    if (xs.size(0) > 0) {
+      basisAt(xs, scale, pb.surface_h, nullptr);
+      pb.surface_g = toEigen(lift_s[0]);
+      pb.surface_D = toEigen(lift_s[2]);
+      pb.traction_area = toEigen(traction_area);
+    } else {
+      pb.surface_h.resize(0, m);
+      pb.surface_g.resize(0, 3);
+      pb.surface_D.resize(0, 3);
+      pb.traction_area.resize(0, 3);
+    }
+    pb.output_scale = out_scale;
+    pb.load_scale = scale;
+    Eigen::MatrixXd W(3, m);
+    W.leftCols(m - 1) = toEigen(weights.back());
+    W.col(m - 1) = toEigen(biases.back().unsqueeze(1)).col(0);
+    OutputLayerNewtonConfig newton;
+    newton.max_iterations = config.newton_iterations;
+    const OutputLayerNewtonOutcome outcome = minimiseOutputLayer(pb, *material, W, newton);
+    const Tensor w = torch::from_blob(W.data(), {m, 3}, torch::kFloat64).t().to(dtype);  // column-major W
+    weights.back().copy_(w.narrow(1, 0, m - 1));
+    biases.back().copy_(w.select(1, m - 1));
+    if (config.verbose)
+      std::cerr << "dem: output-layer Newton " << outcome.iterations << " its, energy " << outcome.energy
+                << (outcome.converged ? "" : " (not converged)") << ", output scale " << out_scale << " m\n";
+  }
+
+  // Parametric mode: one Adam run over the whole load range. Each step draws
+  // parametric_samples load fractions (stratified over the range) and minimises the sum of their
+  // potential energies, each divided by its own scale (energy grows with the load squared), so
+  // small and large loads are learnt alike. False when a sample inverts particles or turns NaN.
+  bool trainParametric(int& iterations) {
+    const double lo = config.load_range_min, hi = config.load_range_max;
+    const double floor = 0.05 * load_input_scale;  // keeps samples near 0 from dominating
+    const int k = std::max(1, config.parametric_samples);
+    std::uniform_real_distribution<double> u01(0.0, 1.0);
+    torch::optim::Adam adam(parameters(), torch::optim::AdamOptions(config.adam_learning_rate));
+    const int n = std::max(1, config.adam_iterations);
+    const double decay = std::pow(std::max(config.adam_final_rate_ratio, 1e-6), 1.0 / std::max(1, n - 1));
+    double lr = config.adam_learning_rate;
+    for (int it = 0; it < n; ++it) {
+      adam.zero_grad();
+      Tensor total;
+      for (int j = 0; j < k; ++j) {
+        const double s = lo + (hi - lo) * (j + u01(rng)) / k;
+        double jmin = 0;
+        Tensor l = loss(s, nullptr, &jmin, config.jitter) / (s * s + floor * floor);
+        if (!std::isfinite(l.item<double>()) || !(jmin > 0)) return false;
+        total = j == 0 ? l : total + l;
+      }
+      (total / k).backward();
+      adam.step();
+      lr *= decay;
+      for (auto& group : adam.param_groups()) static_cast<torch::optim::AdamOptions&>(group.options()).lr(lr);
+      ++iterations;
+    }
+    // The trained field must be admissible over the whole range, not only at the samples drawn.
+    torch::NoGradGuard guard;
+    for (int j = 0; j <= 8; ++j) {
+      double jmin = 0;
+      const Tensor l = loss(lo + (hi - lo) * j / 8.0, nullptr, &jmin);
+      if (!std::isfinite(l.item<double>()) || !(jmin > 0)) return false;
+    }
+    return true;
+  }
+
   // Trains at one load fraction; false when the loss turns NaN or a particle inverts.
   bool train(double scale, int& iterations, DemReport& report) {
     auto params = parameters();
     double e = 0, jmin = 0;
+    const bool newton = newtonEnabled();
+    if (newton) solveOutputLayer(scale);
     if (config.adam_iterations > 0) {
       torch::optim::Adam adam(params, torch::optim::AdamOptions(config.adam_learning_rate));
       const int n = config.adam_iterations;
       const double decay = std::pow(std::max(config.adam_final_rate_ratio, 1e-6), 1.0 / std::max(1, n - 1));
       double lr = config.adam_learning_rate;
       for (int it = 0; it < n; ++it) {
-        if (!rescaled && config.rescale_every > 0 && it > 0 && it % config.rescale_every == 0 &&
+        if (!newton && !rescaled && config.rescale_every > 0 && it > 0 && it % config.rescale_every == 0 &&
             it <= config.rescale_until && config.boundary == DemConfig::Boundary::kExact)
           rescaleOutput(scale);
         adam.zero_grad();
@@ -307,9 +430,12 @@ struct DemSolver::Impl {
         lr *= decay;
         for (auto& group : adam.param_groups()) static_cast<torch::optim::AdamOptions&>(group.options()).lr(lr);
         ++iterations;
+        if (newton && config.newton_every > 0 && (it + 1) % config.newton_every == 0 && it + 1 < n)
+          solveOutputLayer(scale);
       }
       rescaled = true;
     }
+    if (newton) solveOutputLayer(scale);
     if (config.lbfgs_iterations > 0) {
       const auto before = snapshot();
       double e_before = 0;
@@ -373,6 +499,12 @@ DemSolver::DemSolver(core::ParticleCloud cloud, const core::Scenario& scenario, 
   if (config.activation != "tanh" && config.activation != "sigmoid" && config.activation != "softplus" &&
       config.activation != "sin")
     throw core::Error("unknown DEM activation '" + config.activation + "': use tanh, sigmoid, softplus or sin");
+  if (config.parametric && !(std::isfinite(config.load_range_min) && std::isfinite(config.load_range_max) &&
+                             config.load_range_min < config.load_range_max && config.load_range_min <= 1.0 &&
+                             config.load_range_max >= 1.0))
+    throw core::Error("DEM parametric load range [" + std::to_string(config.load_range_min) + ", " +
+                      std::to_string(config.load_range_max) +
+                      "] must be finite, ordered and contain 1 (the scenario's own load, which result() reports)");
   m.config = config;
   m.dtype = config.double_precision ? torch::kFloat64 : torch::kFloat32;
   // One thread is fastest for product-size clouds on shared 2-core machines (notes/dem_speed.md);
@@ -393,11 +525,12 @@ DemSolver::DemSolver(core::ParticleCloud cloud, const core::Scenario& scenario, 
   m.center = 0.5 * (lo + hi);
   m.half = (0.5 * (hi - lo)).cwiseMax(1e-9 * (hi - lo).norm() + 1e-12);
   m.length = (hi - lo).maxCoeff();
+  m.load_input_scale = std::max(std::abs(config.load_range_min), std::abs(config.load_range_max));
   m.inv_half = toTensor(std::vector<Eigen::Vector3d>{m.half.cwiseInverse()}, m.dtype).squeeze(0);
   m.center_t = toTensor(std::vector<Eigen::Vector3d>{m.center}, m.dtype);
   m.eye3 = torch::eye(3, torch::TensorOptions().dtype(m.dtype)).unsqueeze(0);
   m.rng.seed(static_cast<unsigned>(config.seed));
-  int in = 3;
+  int in = config.parametric ? 4 : 3;
   for (int l = 0; l <= config.depth; ++l) {
     const int out = l == config.depth ? 3 : config.width;
     const double bound = std::sqrt(6.0 / (in + out));
@@ -512,6 +645,17 @@ DemReport DemSolver::solve() {
   const double nominal = 1.0 / steps;
   double done = 0.0, step = nominal;
   int halvings = 0;
+  if (m.config.parametric) {
+    const auto saved = m.snapshot();
+    if (!m.trainParametric(report.iterations)) {
+      m.restore(saved);
+      throw core::Error("DEM (parametric): training over load fractions [" + std::to_string(m.config.load_range_min) +
+                        ", " + std::to_string(m.config.load_range_max) +
+                        "] inverted particles (det F <= 0) or diverged (NaN); narrow the range or lower the learning rate");
+    }
+    report.load_steps = 1;
+    done = 1.0;
+  }
   // Warm start: a network trained for this scenario already represents fraction 1.
   while (done < 1.0 - 1e-12) {
     const double target = std::min(1.0, done + step);
@@ -549,7 +693,19 @@ DemReport DemSolver::solve() {
 }
 
 std::vector<Eigen::Vector3d> DemSolver::predict(const std::vector<Eigen::Vector3d>& points) const {
+  return predict(points, impl_->fraction);
+}
+
+std::vector<Eigen::Vector3d> DemSolver::predict(const std::vector<Eigen::Vector3d>& points, double load_scale) const {
   const Impl& m = *impl_;
+  if (!std::isfinite(load_scale)) throw core::Error("DEM predict: the load scale is not finite");
+  if (m.config.parametric && (load_scale < m.config.load_range_min - 1e-12 || load_scale > m.config.load_range_max + 1e-12))
+    throw core::Error("DEM predict: load scale " + std::to_string(load_scale) + " lies outside the trained range [" +
+                      std::to_string(m.config.load_range_min) + ", " + std::to_string(m.config.load_range_max) +
+                      "]; retrain with a wider load range");
+  if (!m.config.parametric && std::abs(load_scale - m.fraction) > 1e-12)
+    throw core::Error("DEM predict: this network was trained for load fraction " + std::to_string(m.fraction) +
+                      " only; train with parametric = true to predict other loads");
   if (points.empty()) return {};
   torch::NoGradGuard guard;
   const Tensor x = toTensor(points, m.dtype);
@@ -557,9 +713,9 @@ std::vector<Eigen::Vector3d> DemSolver::predict(const std::vector<Eigen::Vector3
   if (m.config.boundary == DemConfig::Boundary::kExact) {
     const DirichletLift lift = dirichletLift(m.scenario, points, m.length);
     const Tensor parts[4] = {toTensor(lift.g, m.dtype), Tensor(), toTensor(lift.D, m.dtype), Tensor()};
-    u = m.displacement(x, parts, false, m.fraction).first;
+    u = m.displacement(x, parts, false, load_scale).first;
   } else {
-    u = m.displacement(x, nullptr, false, m.fraction).first;
+    u = m.displacement(x, nullptr, false, load_scale).first;
   }
   u = u.to(torch::kFloat64).contiguous();
   std::vector<Eigen::Vector3d> out(points.size());

@@ -66,5 +66,8 @@ struct Scenario {
 Scenario loadScenario(const std::string& path);
 /// Parses a scenario from YAML text (`source` names it in errors).
 Scenario parseScenario(const std::string& yaml_text, const std::string& source = "scenario");
+/// The scenario as YAML that parseScenario reads back to the same values (full double precision):
+/// how saved solver models and nodes record the exact problem they solved.
+std::string toYaml(const Scenario& scenario);
 
 }  // namespace demnerf::core

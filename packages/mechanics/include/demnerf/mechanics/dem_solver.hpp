@@ -30,6 +30,17 @@ struct DemConfig {
   /// output layer 100x in a few hundred steps.
   int rescale_every = 25;
   int rescale_until = 200;
+  /// Ritz-Newton on the output layer (exact boundary mode): before, every newton_every Adam
+  /// iterations during (0: never), and after each load step's Adam run, the output layer is
+  /// solved by Newton's method with the hidden layers frozen (output_layer_newton.hpp), and the
+  /// amplitude line search (rescale_every) is skipped. With adam_iterations = 0 this is a pure
+  /// Ritz solve in the network's basis: the uniaxial cube to 0.5 % in 0.01 s, and the fast
+  /// re-solve for new loads (solveInBasis). Off by default: on the T-bar twist a random basis is
+  /// too stiff (51 % error) and Adam steps after a Newton solve invert particles unless the rate is
+  /// cut 100x (notes in README "Mechanics").
+  bool output_newton = false;
+  int newton_every = 0;
+  int newton_iterations = 12;
   /// Stochastic quadrature near fixtures: particles within jitter_band cells of a fixture move at
   /// random within their cell at every Adam step, so the network cannot hide a displacement ramp
   /// between the fixture and the first particle layer (u = D z with z ~ T / D is a free rigid
@@ -57,6 +68,15 @@ struct DemConfig {
   /// Raise glibc's mmap threshold (process-wide) so per-step activation buffers are reused
   /// instead of page-faulted in fresh every Adam step (about 1.8x at T-bar sizes).
   bool tune_allocator = true;
+  /// Parametric mode (instant response to new loads): the load fraction s (scaling every load,
+  /// body force and prescribed displacement of the scenario) is a fourth network input and
+  /// u = s (g + D z(X, s)); one training over s in [load_range_min, load_range_max] (must
+  /// contain 1), then predict(points, s) answers any s in the range without retraining.
+  /// Load steps, L-BFGS and the output-layer Newton do not apply.
+  bool parametric = false;
+  double load_range_min = 0.0;
+  double load_range_max = 1.0;
+  int parametric_samples = 4;  ///< load fractions drawn per Adam step
   int seed = 1;
   bool double_precision = false;       ///< float32 by default: 2x faster, accurate to < 1e-4
   bool verbose = false;
@@ -86,8 +106,11 @@ class DemSolver {
   DemReport solve();
   /// Replaces the scenario's loads and fixtures (same material) for a warm-started re-solve.
   void setScenario(const core::Scenario& scenario);
-  /// Displacement at arbitrary points.
+  /// Displacement at arbitrary points, at the load the network was trained for.
   std::vector<Eigen::Vector3d> predict(const std::vector<Eigen::Vector3d>& points) const;
+  /// Displacement at a load fraction: any value in the trained range in parametric mode (no
+  /// retraining); otherwise only the trained fraction (core::Error says so).
+  std::vector<Eigen::Vector3d> predict(const std::vector<Eigen::Vector3d>& points, double load_scale) const;
   /// Rest positions, displacement and von Mises stress at the particles, in their order.
   core::ResultField result() const;
 

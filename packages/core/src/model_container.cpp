@@ -1,0 +1,94 @@
+#include "demnerf/core/model_container.hpp"
+
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+#include "demnerf/core/error.hpp"
+
+namespace demnerf::core {
+namespace {
+
+template <typename T>
+void append(std::string& out, const T& value) {
+  out.append(reinterpret_cast<const char*>(&value), sizeof(T));
+}
+
+template <typename T>
+T readAt(const std::string& data, std::size_t offset) {
+  T value;
+  std::memcpy(&value, data.data() + offset, sizeof(T));
+  return value;
+}
+
+}  // namespace
+
+std::uint64_t fnv1a(const char* data, std::size_t size) {
+  std::uint64_t h = 1469598103934665603ull;
+  for (std::size_t i = 0; i < size; ++i) {
+    h ^= static_cast<unsigned char>(data[i]);
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+void writeModelContainer(const std::string& path, const ModelMagic& magic, const ModelContainer& container,
+                         const std::string& what) {
+  std::string out(magic.data(), magic.size());
+  append(out, container.version);
+  append(out, static_cast<std::uint64_t>(container.header.size()));
+  out += container.header;
+  out += container.payload;
+  append(out, fnv1a(out.data(), out.size()));
+
+  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  {
+    std::ofstream file(tmp, std::ios::binary | std::ios::trunc);
+    if (!file) throw Error("cannot write " + what + " file '" + tmp + "' (does the directory exist and is it writable?)");
+    file.write(out.data(), static_cast<std::streamsize>(out.size()));
+    file.flush();
+    if (!file) {
+      file.close();
+      std::remove(tmp.c_str());
+      throw Error("writing " + what + " file '" + tmp + "' failed after " + std::to_string(out.size()) +
+                  " bytes were queued (disk full?); '" + path + "' was left unchanged");
+    }
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    const std::string reason = std::strerror(errno);
+    std::remove(tmp.c_str());
+    throw Error("cannot move " + what + " file into place at '" + path + "': " + reason);
+  }
+}
+
+ModelContainer readModelContainer(const std::string& path, const ModelMagic& magic, const std::string& what) {
+  std::ifstream file(path, std::ios::binary);
+  if (!file) throw Error("cannot open " + what + " file '" + path + "'");
+  std::stringstream buffer;
+  buffer << file.rdbuf();
+  const std::string data = buffer.str();
+  const std::string where = what + " file '" + path + "'";
+  if (data.size() < magic.size() || std::memcmp(data.data(), magic.data(), magic.size()) != 0)
+    throw Error(where + " is not a dem_nerf " + what + " (wrong magic bytes)");
+  const std::size_t fixed = magic.size() + sizeof(std::uint32_t) + sizeof(std::uint64_t);
+  if (data.size() < fixed + sizeof(std::uint64_t))
+    throw Error(where + " is truncated: " + std::to_string(data.size()) + " bytes, no header");
+  ModelContainer container;
+  container.version = readAt<std::uint32_t>(data, magic.size());
+  const auto header_bytes = readAt<std::uint64_t>(data, magic.size() + sizeof(std::uint32_t));
+  if (header_bytes > data.size() - fixed - sizeof(std::uint64_t))
+    throw Error(where + " is truncated: header says " + std::to_string(header_bytes) + " bytes, file has " +
+                std::to_string(data.size()));
+  const std::size_t body_end = data.size() - sizeof(std::uint64_t);
+  if (fnv1a(data.data(), body_end) != readAt<std::uint64_t>(data, body_end))
+    throw Error(where + " is corrupt or truncated: checksum mismatch (the file was damaged after it was written)");
+  container.header = data.substr(fixed, header_bytes);
+  container.payload = data.substr(fixed + header_bytes, body_end - fixed - header_bytes);
+  return container;
+}
+
+}  // namespace demnerf::core
