@@ -747,6 +747,52 @@ core::ResultField DemSolver::result() const {
   return r;
 }
 
+DemState DemSolver::state() const {
+  const Impl& m = *impl_;
+  DemState st;
+  st.config = m.config;
+  st.scenario = m.scenario;
+  st.cloud = m.cloud;
+  st.output_scale = m.out_scale;
+  st.energy_scale = m.energy_scale;
+  st.fraction = m.fraction;
+  st.rescaled = m.rescaled;
+  for (std::size_t l = 0; l < m.weights.size(); ++l) {
+    st.weights.push_back(toEigen(m.weights[l].detach()));
+    st.biases.push_back(toEigen(m.biases[l].detach().unsqueeze(1)).col(0));
+  }
+  return st;
+}
+
+DemSolver DemSolver::fromState(const DemState& state) {
+  DemSolver solver(state.cloud, state.scenario, state.config);
+  Impl& m = *solver.impl_;
+  if (state.weights.size() != m.weights.size() || state.biases.size() != m.biases.size())
+    throw core::Error("DEM state has " + std::to_string(state.weights.size()) + " layers; the config (depth " +
+                      std::to_string(state.config.depth) + ") needs " + std::to_string(m.weights.size()));
+  torch::NoGradGuard guard;
+  for (std::size_t l = 0; l < m.weights.size(); ++l) {
+    const Eigen::MatrixXd& W = state.weights[l];
+    const Eigen::VectorXd& b = state.biases[l];
+    if (W.rows() != m.weights[l].size(0) || W.cols() != m.weights[l].size(1) || b.size() != m.biases[l].size(0))
+      throw core::Error("DEM state: layer " + std::to_string(l) + " is " + std::to_string(W.rows()) + " x " +
+                        std::to_string(W.cols()) + ", the config needs " + std::to_string(m.weights[l].size(0)) +
+                        " x " + std::to_string(m.weights[l].size(1)));
+    if (!W.allFinite() || !b.allFinite()) throw core::Error("DEM state: layer " + std::to_string(l) + " holds NaN or inf");
+    // Eigen is column-major: its transpose's buffer is the row-major (out x in) tensor.
+    const Eigen::MatrixXd Wt = W.transpose();
+    m.weights[l].copy_(torch::from_blob(const_cast<double*>(Wt.data()), {W.rows(), W.cols()}, torch::kFloat64));
+    m.biases[l].copy_(torch::from_blob(const_cast<double*>(b.data()), {b.size()}, torch::kFloat64));
+  }
+  if (!(state.output_scale > 0) || !(state.energy_scale > 0) || !std::isfinite(state.fraction))
+    throw core::Error("DEM state: output and energy scales must be positive and the load fraction finite");
+  m.out_scale = state.output_scale;
+  m.energy_scale = state.energy_scale;
+  m.fraction = state.fraction;
+  m.rescaled = state.rescaled;
+  return solver;
+}
+
 DemSolver::~DemSolver() = default;
 DemSolver::DemSolver(DemSolver&&) noexcept = default;
 

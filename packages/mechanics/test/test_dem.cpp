@@ -2,9 +2,13 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <unistd.h>
 
 #include "demnerf/core/error.hpp"
 #include "demnerf/mechanics/box_particles.hpp"
+#include "demnerf/mechanics/dem_model_io.hpp"
 #include "demnerf/mechanics/dem_solver.hpp"
 #include "demnerf/mechanics/dirichlet_lift.hpp"
 #include "demnerf/mechanics/reference_problems.hpp"
@@ -232,3 +236,50 @@ TEST(Dem, CrushingLoadIsReportedNotReturned) {
 }
 
 }  // namespace
+
+TEST(Dem, SavedModelsPredictExactlyAsBeforeAndDamageIsReported) {
+  const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(4, 4, 4));
+  dm::DemConfig config;
+  config.width = 8;
+  config.depth = 2;
+  config.adam_iterations = 50;
+  config.parametric = true;
+  config.load_range_max = 1.5;
+  config.threads = 1;
+  dm::DemSolver dem(cloud, uniaxial(1e5), config);
+  dem.solve();
+  const std::string path = ::testing::TempDir() + "dem_model_" + std::to_string(::getpid()) + ".dem";
+  dm::saveDemModel(dem, path);
+  const dm::DemSolver loaded = dm::loadDemModel(path);
+  const std::vector<Vector3d> points = {Vector3d(0.2, 0.3, 0.4), Vector3d(0.9, 0.1, 0.5)};
+  for (const double scale : {0.5, 1.0, 1.4}) {
+    const auto a = dem.predict(points, scale), b = loaded.predict(points, scale);
+    for (std::size_t i = 0; i < points.size(); ++i) EXPECT_LT((a[i] - b[i]).norm(), 1e-12 + 1e-6 * a[i].norm());
+  }
+  EXPECT_THROW(loaded.predict(points, 2.0), core::Error);  // the range travelled with the model
+
+  // One flipped byte, a truncation and a missing file each give an error naming the file.
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  auto expectError = [&](const std::string& content, const std::string& fragment) {
+    const std::string bad = path + ".bad";
+    std::ofstream(bad, std::ios::binary) << content;
+    try {
+      dm::loadDemModel(bad);
+      ADD_FAILURE() << "no error for " << fragment;
+    } catch (const core::Error& e) {
+      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+    }
+    std::remove(bad.c_str());
+  };
+  std::string flipped = bytes;
+  flipped[flipped.size() / 2] ^= 0x40;
+  expectError(flipped, "checksum");
+  expectError(bytes.substr(0, bytes.size() / 3), "DEM model");
+  expectError("not a model at all", "magic");
+  EXPECT_THROW(dm::loadDemModel(path + ".missing"), core::Error);
+  std::remove(path.c_str());
+}

@@ -92,6 +92,20 @@ struct DemReport {
   bool polish_rejected = false;  ///< an L-BFGS polish was undone (exploit guard)
 };
 
+/// Everything a trained DemSolver is (what dem_model_io saves): the problem, the network's
+/// weights (row-major out x in) and the scales that map its output to metres.
+struct DemState {
+  DemConfig config;
+  core::Scenario scenario;
+  core::ParticleCloud cloud;
+  double output_scale = 1.0;
+  double energy_scale = 1.0;
+  double fraction = 0.0;
+  bool rescaled = false;
+  std::vector<Eigen::MatrixXd> weights;
+  std::vector<Eigen::VectorXd> biases;
+};
+
 class DemSolver {
  public:
   /// Validates scenario and particles (core::Error before any training) and builds the network.
@@ -113,6 +127,11 @@ class DemSolver {
   std::vector<Eigen::Vector3d> predict(const std::vector<Eigen::Vector3d>& points, double load_scale) const;
   /// Rest positions, displacement and von Mises stress at the particles, in their order.
   core::ResultField result() const;
+
+  /// A copy of the trained state, and a solver rebuilt from one (checked like the constructor;
+  /// layer shapes must match the config's width and depth).
+  DemState state() const;
+  static DemSolver fromState(const DemState& state);
 
  private:
   struct Impl;

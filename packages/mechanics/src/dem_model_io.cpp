@@ -1,0 +1,178 @@
+#include "demnerf/mechanics/dem_model_io.hpp"
+
+#include <cstring>
+#include <nlohmann/json.hpp>
+
+#include "demnerf/core/error.hpp"
+#include "demnerf/core/model_container.hpp"
+#include "demnerf/core/scenario.hpp"
+
+namespace demnerf::mechanics {
+namespace {
+
+constexpr core::ModelMagic kMagic = {'D', 'E', 'M', 'N', 'E', 'R', 'F', 'D'};
+constexpr const char* kWhat = "DEM model";
+
+nlohmann::json toJson(const DemConfig& c) {
+  return {{"width", c.width},
+          {"depth", c.depth},
+          {"activation", c.activation},
+          {"boundary", c.boundary == DemConfig::Boundary::kExact ? "exact" : "penalty"},
+          {"penalty_weight", c.penalty_weight},
+          {"adam_iterations", c.adam_iterations},
+          {"adam_learning_rate", c.adam_learning_rate},
+          {"adam_final_rate_ratio", c.adam_final_rate_ratio},
+          {"rescale_every", c.rescale_every},
+          {"rescale_until", c.rescale_until},
+          {"output_newton", c.output_newton},
+          {"newton_every", c.newton_every},
+          {"newton_iterations", c.newton_iterations},
+          {"jitter", c.jitter},
+          {"jitter_band", c.jitter_band},
+          {"lbfgs_iterations", c.lbfgs_iterations},
+          {"lbfgs_history", c.lbfgs_history},
+          {"polish_max_energy_drop", c.polish_max_energy_drop},
+          {"polish_max_growth", c.polish_max_growth},
+          {"tolerance", c.tolerance},
+          {"max_halvings", c.max_halvings},
+          {"parametric", c.parametric},
+          {"load_range_min", c.load_range_min},
+          {"load_range_max", c.load_range_max},
+          {"parametric_samples", c.parametric_samples},
+          {"seed", c.seed},
+          {"double_precision", c.double_precision}};
+}
+
+// Threads, verbosity and the allocator switch belong to the machine that loads the model.
+DemConfig configFromJson(const nlohmann::json& j) {
+  DemConfig c;
+  c.width = j.at("width");
+  c.depth = j.at("depth");
+  c.activation = j.at("activation");
+  c.boundary = j.at("boundary") == "penalty" ? DemConfig::Boundary::kPenalty : DemConfig::Boundary::kExact;
+  c.penalty_weight = j.at("penalty_weight");
+  c.adam_iterations = j.at("adam_iterations");
+  c.adam_learning_rate = j.at("adam_learning_rate");
+  c.adam_final_rate_ratio = j.at("adam_final_rate_ratio");
+  c.rescale_every = j.at("rescale_every");
+  c.rescale_until = j.at("rescale_until");
+  c.output_newton = j.at("output_newton");
+  c.newton_every = j.at("newton_every");
+  c.newton_iterations = j.at("newton_iterations");
+  c.jitter = j.at("jitter");
+  c.jitter_band = j.at("jitter_band");
+  c.lbfgs_iterations = j.at("lbfgs_iterations");
+  c.lbfgs_history = j.at("lbfgs_history");
+  c.polish_max_energy_drop = j.at("polish_max_energy_drop");
+  c.polish_max_growth = j.at("polish_max_growth");
+  c.tolerance = j.at("tolerance");
+  c.max_halvings = j.at("max_halvings");
+  c.parametric = j.at("parametric");
+  c.load_range_min = j.at("load_range_min");
+  c.load_range_max = j.at("load_range_max");
+  c.parametric_samples = j.at("parametric_samples");
+  c.seed = j.at("seed");
+  c.double_precision = j.at("double_precision");
+  return c;
+}
+
+void putDoubles(std::string& out, const double* data, std::size_t count) {
+  out.append(reinterpret_cast<const char*>(data), count * sizeof(double));
+}
+
+// Reads doubles sequentially from the payload; running past its end means a damaged header.
+class PayloadReader {
+ public:
+  PayloadReader(const std::string& payload, const std::string& where) : payload_(payload), where_(where) {}
+  void get(double* data, std::size_t count) {
+    const std::size_t bytes = count * sizeof(double);
+    if (offset_ + bytes > payload_.size())
+      throw core::Error(where_ + " is corrupt: its header describes more data than the file holds");
+    std::memcpy(data, payload_.data() + offset_, bytes);
+    offset_ += bytes;
+  }
+  void expectEnd() const {
+    if (offset_ != payload_.size()) throw core::Error(where_ + " is corrupt: unexpected bytes after the network");
+  }
+
+ private:
+  const std::string& payload_;
+  std::string where_;
+  std::size_t offset_ = 0;
+};
+
+}  // namespace
+
+void saveDemModel(const DemSolver& solver, const std::string& path) {
+  const DemState st = solver.state();
+  nlohmann::json layers = nlohmann::json::array();
+  std::string payload;
+  const std::size_t n = st.cloud.size();
+  for (std::size_t i = 0; i < n; ++i) putDoubles(payload, st.cloud.positions[i].data(), 3);
+  putDoubles(payload, st.cloud.volumes.data(), n);
+  for (std::size_t i = 0; i < n; ++i) putDoubles(payload, st.cloud.normals[i].data(), 3);
+  putDoubles(payload, st.cloud.areas.data(), n);
+  for (std::size_t l = 0; l < st.weights.size(); ++l) {
+    layers.push_back({st.weights[l].rows(), st.weights[l].cols()});
+    putDoubles(payload, st.weights[l].data(), st.weights[l].size());  // column-major
+    putDoubles(payload, st.biases[l].data(), st.biases[l].size());
+  }
+  const nlohmann::json header = {{"config", toJson(st.config)},
+                                 {"scenario_yaml", core::toYaml(st.scenario)},
+                                 {"particles", n},
+                                 {"layers", layers},
+                                 {"output_scale", st.output_scale},
+                                 {"energy_scale", st.energy_scale},
+                                 {"fraction", st.fraction},
+                                 {"rescaled", st.rescaled}};
+  core::ModelContainer container;
+  container.version = kDemModelFileVersion;
+  container.header = header.dump();
+  container.payload = std::move(payload);
+  core::writeModelContainer(path, kMagic, container, kWhat);
+}
+
+DemSolver loadDemModel(const std::string& path) {
+  const core::ModelContainer container = core::readModelContainer(path, kMagic, kWhat);
+  const std::string where = std::string(kWhat) + " file '" + path + "'";
+  if (container.version != kDemModelFileVersion)
+    throw core::Error(where + " has format version " + std::to_string(container.version) + "; this build reads version " +
+                      std::to_string(kDemModelFileVersion));
+  DemState st;
+  std::vector<std::pair<long, long>> shapes;
+  std::size_t n = 0;
+  try {
+    const nlohmann::json header = nlohmann::json::parse(container.header);
+    st.config = configFromJson(header.at("config"));
+    st.scenario = core::parseScenario(header.at("scenario_yaml").get<std::string>(), where);
+    n = header.at("particles");
+    for (const auto& shape : header.at("layers")) shapes.emplace_back(shape.at(0), shape.at(1));
+    st.output_scale = header.at("output_scale");
+    st.energy_scale = header.at("energy_scale");
+    st.fraction = header.at("fraction");
+    st.rescaled = header.at("rescaled");
+  } catch (const nlohmann::json::exception& e) {
+    throw core::Error(where + " is corrupt: its header is not what save wrote (" + e.what() + ")");
+  }
+  if (n == 0 || n > container.payload.size() / (8 * sizeof(double)))
+    throw core::Error(where + " is corrupt: it claims " + std::to_string(n) + " particles in " +
+                      std::to_string(container.payload.size()) + " bytes");
+  PayloadReader reader(container.payload, where);
+  st.cloud.resize(n);
+  for (std::size_t i = 0; i < n; ++i) reader.get(st.cloud.positions[i].data(), 3);
+  reader.get(st.cloud.volumes.data(), n);
+  for (std::size_t i = 0; i < n; ++i) reader.get(st.cloud.normals[i].data(), 3);
+  reader.get(st.cloud.areas.data(), n);
+  for (const auto& [rows, cols] : shapes) {
+    if (rows <= 0 || cols <= 0 || rows > 100000 || cols > 100000)
+      throw core::Error(where + " is corrupt: a layer of " + std::to_string(rows) + " x " + std::to_string(cols));
+    st.weights.emplace_back(rows, cols);
+    st.biases.emplace_back(rows);
+    reader.get(st.weights.back().data(), st.weights.back().size());
+    reader.get(st.biases.back().data(), st.biases.back().size());
+  }
+  reader.expectEnd();
+  return DemSolver::fromState(st);
+}
+
+}  // namespace demnerf::mechanics
