@@ -65,7 +65,8 @@ void writeModelContainer(const std::string& path, const ModelMagic& magic, const
   }
 }
 
-ModelContainer readModelContainer(const std::string& path, const ModelMagic& magic, const std::string& what) {
+ModelContainer readModelContainer(const std::string& path, const ModelMagic& magic, std::uint32_t version,
+                                  const std::string& what) {
   std::ifstream file(path, std::ios::binary);
   if (!file) throw Error("cannot open " + what + " file '" + path + "'");
   std::stringstream buffer;
@@ -79,6 +80,9 @@ ModelContainer readModelContainer(const std::string& path, const ModelMagic& mag
     throw Error(where + " is truncated: " + std::to_string(data.size()) + " bytes, no header");
   ModelContainer container;
   container.version = readAt<std::uint32_t>(data, magic.size());
+  if (container.version != version)
+    throw Error(where + " has format version " + std::to_string(container.version) + "; this build reads version " +
+                std::to_string(version));
   const auto header_bytes = readAt<std::uint64_t>(data, magic.size() + sizeof(std::uint32_t));
   if (header_bytes > data.size() - fixed - sizeof(std::uint64_t))
     throw Error(where + " is truncated: header says " + std::to_string(header_bytes) + " bytes, file has " +

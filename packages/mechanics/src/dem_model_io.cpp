@@ -133,11 +133,8 @@ void saveDemModel(const DemSolver& solver, const std::string& path) {
 }
 
 DemSolver loadDemModel(const std::string& path) {
-  const core::ModelContainer container = core::readModelContainer(path, kMagic, kWhat);
+  const core::ModelContainer container = core::readModelContainer(path, kMagic, kDemModelFileVersion, kWhat);
   const std::string where = std::string(kWhat) + " file '" + path + "'";
-  if (container.version != kDemModelFileVersion)
-    throw core::Error(where + " has format version " + std::to_string(container.version) + "; this build reads version " +
-                      std::to_string(kDemModelFileVersion));
   DemState st;
   std::vector<std::pair<long, long>> shapes;
   std::size_t n = 0;

@@ -25,7 +25,9 @@ std::uint64_t fnv1a(const char* data, std::size_t size);
 void writeModelContainer(const std::string& path, const ModelMagic& magic, const ModelContainer& container,
                          const std::string& what);
 
-/// Checks magic, sizes and checksum; the caller checks the version and the payload's layout.
-ModelContainer readModelContainer(const std::string& path, const ModelMagic& magic, const std::string& what);
+/// Checks magic, version (before the checksum: a file from another build is not damaged, and
+/// says so), sizes and checksum; the caller checks the payload's layout.
+ModelContainer readModelContainer(const std::string& path, const ModelMagic& magic, std::uint32_t version,
+                                  const std::string& what);
 
 }  // namespace demnerf::core
