@@ -10,3 +10,7 @@ add_executable(mechanics_dem ${CMAKE_CURRENT_LIST_DIR}/mechanics_dem.cpp)
 target_link_libraries(mechanics_dem PRIVATE demnerf_mechanics)
 target_compile_definitions(mechanics_dem PRIVATE DEMNERF_ROOT="${DEMNERF_ROOT_DIR}")
 set_target_properties(mechanics_dem PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin/bench")
+add_executable(mechanics_convergence ${CMAKE_CURRENT_LIST_DIR}/mechanics_convergence.cpp)
+target_link_libraries(mechanics_convergence PRIVATE demnerf_mechanics)  # OpenCV comes with demnerf_core
+target_compile_definitions(mechanics_convergence PRIVATE DEMNERF_ROOT="${DEMNERF_ROOT_DIR}")
+set_target_properties(mechanics_convergence PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin/bench")

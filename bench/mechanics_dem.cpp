@@ -37,38 +37,7 @@ using demnerf::bench::tbarParticles;
 
 namespace {
 
-core::Region box(const Vector3d& center, const Vector3d& size) {
-  core::Region r;
-  r.type = core::Region::Type::kBox;
-  r.center = center;
-  r.size = size;
-  return r;
-}
-
-core::Scenario uniaxial(double p11) {
-  core::Scenario s;
-  s.name = "uniaxial";
-  s.material.youngs_modulus = 1e6;
-  s.material.poisson_ratio = 0.3;
-  for (int axis = 0; axis < 3; ++axis) {
-    core::Fixture f;
-    f.name = std::string("roller_") + "xyz"[axis];
-    Vector3d c(0.5, 0.5, 0.5), size(2, 2, 2);
-    c(axis) = 0.0;
-    size(axis) = 1e-6;
-    f.region = box(c, size);
-    f.constrained = Eigen::Vector3i::Zero();
-    f.constrained(axis) = 1;
-    s.fixtures.push_back(f);
-  }
-  core::Load pull;
-  pull.name = "pull";
-  pull.region = box(Vector3d(1, 0.5, 0.5), Vector3d(1e-6, 2, 2));
-  pull.force = Vector3d(p11, 0, 0);
-  s.loads = {pull};
-  return s;
-}
-
+core::Scenario uniaxial(double p11) { return dm::uniaxialTractionScenario(p11); }
 
 }  // namespace
 

@@ -107,6 +107,12 @@ struct DemSolver::Impl {
   double load_input_scale = 1.0;  // parametric: largest |load fraction| of the trained range
   bool rescaled = false;  // the output amplitude was fitted (first solve only)
   std::vector<Eigen::Vector3d> last_good_positions;
+  std::function<void(int)> progress;
+  int progress_every = 0;
+
+  void reportProgress(int iterations) const {
+    if (progress && progress_every > 0 && iterations % progress_every == 0) progress(iterations);
+  }
 
   std::vector<Tensor> parameters() const {
     std::vector<Tensor> p;
@@ -377,6 +383,7 @@ struct DemSolver::Impl {
     const double floor = 0.05 * load_input_scale;  // keeps samples near 0 from dominating
     const int k = std::max(1, config.parametric_samples);
     std::uniform_real_distribution<double> u01(0.0, 1.0);
+    fraction = 1.0;  // what predict() shows from a progress callback
     torch::optim::Adam adam(parameters(), torch::optim::AdamOptions(config.adam_learning_rate));
     const int n = std::max(1, config.adam_iterations);
     const double decay = std::pow(std::max(config.adam_final_rate_ratio, 1e-6), 1.0 / std::max(1, n - 1));
@@ -395,7 +402,7 @@ struct DemSolver::Impl {
       adam.step();
       lr *= decay;
       for (auto& group : adam.param_groups()) static_cast<torch::optim::AdamOptions&>(group.options()).lr(lr);
-      ++iterations;
+      reportProgress(++iterations);
     }
     // The trained field must be admissible over the whole range, not only at the samples drawn.
     torch::NoGradGuard guard;
@@ -411,6 +418,7 @@ struct DemSolver::Impl {
   bool train(double scale, int& iterations, DemReport& report) {
     auto params = parameters();
     double e = 0, jmin = 0;
+    fraction = scale;  // what predict() shows from a progress callback
     const bool newton = newtonEnabled();
     if (newton) solveOutputLayer(scale);
     if (config.adam_iterations > 0) {
@@ -429,7 +437,7 @@ struct DemSolver::Impl {
         adam.step();
         lr *= decay;
         for (auto& group : adam.param_groups()) static_cast<torch::optim::AdamOptions&>(group.options()).lr(lr);
-        ++iterations;
+        reportProgress(++iterations);
         if (newton && config.newton_every > 0 && (it + 1) % config.newton_every == 0 && it + 1 < n)
           solveOutputLayer(scale);
       }
@@ -455,7 +463,7 @@ struct DemSolver::Impl {
         lbfgs.zero_grad();
         double jm = 0;
         Tensor l = loss(scale, nullptr, &jm);
-        ++iterations;
+        reportProgress(++iterations);
         if (!std::isfinite(l.item<double>()) || !(jm > 0)) {
           // Tell the line search this point is unacceptable without poisoning its history.
           return torch::full({}, 1e30, torch::TensorOptions().dtype(dtype));
@@ -666,6 +674,7 @@ DemReport DemSolver::solve() {
       step = std::min(nominal, 2.0 * step);
     } else {
       m.restore(saved);
+      m.fraction = done;
       step *= 0.5;
       if (++halvings > m.config.max_halvings) {
         std::ostringstream msg;
@@ -745,6 +754,11 @@ core::ResultField DemSolver::result() const {
                                          : std::numeric_limits<double>::quiet_NaN();
   }
   return r;
+}
+
+void DemSolver::setProgressCallback(std::function<void(int iteration)> callback, int every) {
+  impl_->progress = std::move(callback);
+  impl_->progress_every = every;
 }
 
 DemState DemSolver::state() const {

@@ -83,4 +83,36 @@ double uniaxialStretchForStress(const HyperelasticMaterial& material, double p11
   return a;
 }
 
+core::Scenario uniaxialTractionScenario(double p11, const std::string& model) {
+  auto plane = [](const Eigen::Vector3d& center, int axis) {
+    core::Region r;
+    r.type = core::Region::Type::kBox;
+    r.center = center;
+    r.size = Eigen::Vector3d(2, 2, 2);
+    r.size(axis) = 1e-6;  // a thin slab selects the face's particles and nodes
+    return r;
+  };
+  core::Scenario s;
+  s.name = "uniaxial";
+  s.material.model = model;
+  s.material.youngs_modulus = 1e6;
+  s.material.poisson_ratio = 0.3;
+  for (int axis = 0; axis < 3; ++axis) {
+    core::Fixture f;
+    f.name = std::string("roller_") + "xyz"[axis];
+    Eigen::Vector3d c(0.5, 0.5, 0.5);
+    c(axis) = 0.0;
+    f.region = plane(c, axis);
+    f.constrained = Eigen::Vector3i::Zero();
+    f.constrained(axis) = 1;
+    s.fixtures.push_back(f);
+  }
+  core::Load pull;
+  pull.name = "pull";
+  pull.region = plane(Eigen::Vector3d(1, 0.5, 0.5), 0);
+  pull.force = Eigen::Vector3d(p11, 0, 0);
+  s.loads = {pull};
+  return s;
+}
+
 }  // namespace demnerf::mechanics

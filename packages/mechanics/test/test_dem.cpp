@@ -39,20 +39,7 @@ core::Fixture roller(int axis) {
   return f;
 }
 
-// Unit cube on rollers, pulled by a uniform traction P11 on x = 1.
-core::Scenario uniaxial(double p11) {
-  core::Scenario s;
-  s.name = "uniaxial";
-  s.material.youngs_modulus = 1e6;
-  s.material.poisson_ratio = 0.3;
-  s.fixtures = {roller(0), roller(1), roller(2)};
-  core::Load pull;
-  pull.name = "pull";
-  pull.region = box(Vector3d(1, 0.5, 0.5), Vector3d(1e-6, 2, 2));
-  pull.force = Vector3d(p11, 0, 0);
-  s.loads = {pull};
-  return s;
-}
+core::Scenario uniaxial(double p11) { return dm::uniaxialTractionScenario(p11); }
 
 double relativeError(const dm::DemSolver& dem, const core::ParticleCloud& cloud, double a, double b,
                      double load_scale = 1.0) {

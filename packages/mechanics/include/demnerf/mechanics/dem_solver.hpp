@@ -3,6 +3,7 @@
 // potential energy of a particle-discretised Neo-Hookean body (LibTorch; no torch in this header).
 
 #include <Eigen/Core>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -127,6 +128,10 @@ class DemSolver {
   std::vector<Eigen::Vector3d> predict(const std::vector<Eigen::Vector3d>& points, double load_scale) const;
   /// Rest positions, displacement and von Mises stress at the particles, in their order.
   core::ResultField result() const;
+
+  /// Called every `every` optimiser iterations (Adam steps and L-BFGS evaluations) with the
+  /// iteration count so far: progress bars, convergence curves (predict() may be called from it).
+  void setProgressCallback(std::function<void(int iteration)> callback, int every);
 
   /// A copy of the trained state, and a solver rebuilt from one (checked like the constructor;
   /// layer shapes must match the config's width and depth).

@@ -3,6 +3,7 @@
 // gallery) and homogeneous uniaxial stretch (closed form).
 
 #include <Eigen/Core>
+#include <string>
 
 #include "demnerf/core/scenario.hpp"
 #include "demnerf/mechanics/material.hpp"
@@ -21,6 +22,9 @@ Eigen::Vector3d cookMembraneTip();
 /// Converged reference tip y-displacement (m), deal.II Q2 elements.
 constexpr double kCookTipReference = 14.33e-3;
 
+/// The unit cube [0,1]^3 on rollers (each x_i = 0 face holds u_i = 0) pulled by a uniform dead
+/// traction P11 on x = 1; E = 1 MPa, nu = 0.3 (`model` picks the Neo-Hookean form).
+core::Scenario uniaxialTractionScenario(double p11, const std::string& model = "neo_hookean");
 /// Lateral stretch b of a homogeneous uniaxial state F = diag(a, b, b) with traction-free sides.
 double uniaxialLateralStretch(const HyperelasticMaterial& material, double a);
 /// Axial stretch a (and lateral b) under a uniaxial first Piola-Kirchhoff stress P11.
