@@ -4,9 +4,8 @@ namespace demnerf::cli {
 
 const std::vector<Command>& allCommands() {
   static const std::vector<Command> commands = {
-      kSynthCommand,   kTrainCommand,    kEvalCommand,    kRenderCommand,
-      kExtractCommand, kSampleCommand,   kSimulateCommand, kCompareCommand,
-      kPipelineCommand, kBagCommand,     kInfoCommand};
+      kSynthCommand,    kTrainCommand,  kEvalCommand,    kRenderCommand,  kExtractCommand, kSampleCommand,
+      kSimulateCommand, kPredictCommand, kCompareCommand, kPipelineCommand, kBagCommand,     kInfoCommand};
   return commands;
 }
 

@@ -44,6 +44,11 @@ const Command kSimulateCommand = {"simulate", "quasi-static deformation of a par
     "--particles P.ply --scenario S.yaml --solver dem|pinn|fem [--mesh M] --out R.ply [--json]",
     [](const Arguments&) -> Figures { notBuilt("simulation"); }};
 #endif
+#ifndef DEMNERF_HAS_PREDICT_COMMAND
+const Command kPredictCommand = {"predict", "displacement from a saved DEM model, at any points and load in its range",
+    "--model M.dem --out R.ply [--points P.ply] [--load-scale S] [--json]",
+    [](const Arguments&) -> Figures { notBuilt("DEM prediction"); }};
+#endif
 #ifndef DEMNERF_HAS_COMPARE_COMMAND
 const Command kCompareCommand = {"compare", "displacement error of a result against a reference",
     "--result R.ply --reference REF.ply [--json]",

@@ -733,20 +733,23 @@ std::vector<Eigen::Vector3d> DemSolver::predict(const std::vector<Eigen::Vector3
   return out;
 }
 
-core::ResultField DemSolver::result() const {
+core::ResultField DemSolver::result() const { return evaluate(impl_->cloud.positions, impl_->fraction); }
+
+core::ResultField DemSolver::evaluate(const std::vector<Eigen::Vector3d>& points, double load_scale) const {
   const Impl& m = *impl_;
   torch::NoGradGuard guard;
   core::ResultField r;
-  r.positions = m.cloud.positions;
-  r.displacements = predict(m.cloud.positions);
-  const Tensor x = toTensor(m.cloud.positions, m.dtype);
-  const DirichletLift lift = dirichletLift(m.scenario, m.cloud.positions, m.length);
+  r.positions = points;
+  r.displacements = predict(points, load_scale);  // checks the load scale
+  if (points.empty()) return r;
+  const Tensor x = toTensor(points, m.dtype);
+  const DirichletLift lift = dirichletLift(m.scenario, points, m.length);
   const Tensor parts[4] = {toTensor(lift.g, m.dtype), toTensor(lift.grad_g, m.dtype), toTensor(lift.D, m.dtype),
                            toTensor(lift.grad_D, m.dtype)};
-  const Tensor gu = m.displacement(x, parts, true, m.fraction).second.to(torch::kFloat64).contiguous();
+  const Tensor gu = m.displacement(x, parts, true, load_scale).second.to(torch::kFloat64).contiguous();
   const double* g = gu.data_ptr<double>();
-  r.von_mises.resize(m.cloud.size());
-  for (std::size_t i = 0; i < m.cloud.size(); ++i) {
+  r.von_mises.resize(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
     Eigen::Matrix3d F = Eigen::Matrix3d::Identity();
     for (int a = 0; a < 3; ++a)
       for (int b = 0; b < 3; ++b) F(a, b) += g[9 * i + 3 * a + b];
@@ -754,6 +757,14 @@ core::ResultField DemSolver::result() const {
                                          : std::numeric_limits<double>::quiet_NaN();
   }
   return r;
+}
+
+const core::ParticleCloud& DemSolver::particles() const { return impl_->cloud; }
+
+std::pair<double, double> DemSolver::loadRange() const {
+  const Impl& m = *impl_;
+  if (m.config.parametric) return {m.config.load_range_min, m.config.load_range_max};
+  return {m.fraction, m.fraction};
 }
 
 void DemSolver::setProgressCallback(std::function<void(int iteration)> callback, int every) {

@@ -128,6 +128,12 @@ class DemSolver {
   std::vector<Eigen::Vector3d> predict(const std::vector<Eigen::Vector3d>& points, double load_scale) const;
   /// Rest positions, displacement and von Mises stress at the particles, in their order.
   core::ResultField result() const;
+  /// The same at any points and load fraction (the rules of predict(points, load_scale)).
+  core::ResultField evaluate(const std::vector<Eigen::Vector3d>& points, double load_scale) const;
+  /// The particles the network was trained on.
+  const core::ParticleCloud& particles() const;
+  /// The load fractions predict() accepts: [min, max] in parametric mode, else the trained one.
+  std::pair<double, double> loadRange() const;
 
   /// Called every `every` optimiser iterations (Adam steps and L-BFGS evaluations) with the
   /// iteration count so far: progress bars, convergence curves (predict() may be called from it).
