@@ -5,13 +5,13 @@ set -uo pipefail
 BUILD_DIR=${1:-build}
 DATA=${2:-}
 SOLVER=${SOLVER:-fem}          # dem | fem: the DEM on the T-bar still takes minutes on 2 cores
-FEM_ORDER=${FEM_ORDER:-1}      # 1: linear tets (seconds); 2: quadratic (minutes on the T-bar)
 TRAIN_SECONDS=${TRAIN_SECONDS:-60}
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 cd "$ROOT"
 OUT="$ROOT/output/demo"
 CLI="$ROOT/$BUILD_DIR/bin/demnerf"
 SCENARIO=${SCENARIO:-config/scenarios/tbar_twist.yaml}
+[[ $SCENARIO = /* ]] || SCENARIO="$ROOT/$SCENARIO"
 mkdir -p "$OUT"
 REPORT="$OUT/report.md"
 printf '# dem_nerf demo\n\n| stage | figures |\n| --- | --- |\n' > "$REPORT"
@@ -42,21 +42,40 @@ if [ -z "$DATA" ]; then
   [ -f "$DATA/transforms_train.json" ] || stage synth "$CLI" synth --scene tbar --out "$DATA"
 fi
 stage info "$CLI" info --data "$DATA"
-[ -f "$OUT/dataset.bag" ] || stage bag "$CLI" bag --data "$DATA" --out "$OUT/dataset.bag"
-stage train "$CLI" train --data "$DATA" --out "$OUT/model.nerf" --seconds "$TRAIN_SECONDS"
+stage bag "$CLI" bag --data "$DATA" --out "$OUT/dataset.bag"
+# The ROS run, as on a rig: the bag replays the cameras into nerf_node, which trains for
+# TRAIN_SECONDS, extracts the body and publishes particles; dem_node solves the scenario's twist on
+# them; demo_recorder keeps both clouds as files and ends the launch.
+ros_run() {
+  echo "== ros (roslaunch dem_nerf tbar_demo.launch test:=true)"
+  rm -f "$OUT/recorder.json" "$OUT/model.nerf" "$OUT/particles.ply" "$OUT/displaced.ply"
+  (
+    set +u
+    export PATH="/usr/bin:$PATH"
+    export ROS_HOME="$ROOT/$BUILD_DIR/ros_home_demo"
+    export ROS_MASTER_URI=http://localhost:11399  # its own master, beside any other ROS session
+    # shellcheck disable=SC1090,SC1091
+    source "$ROOT/$BUILD_DIR/devel/setup.bash"
+    roslaunch -p 11399 dem_nerf tbar_demo.launch test:=true out_dir:="$OUT" bag:="$OUT/dataset.bag" \
+      scenario:="$SCENARIO" solver:="$SOLVER" model_path:="$OUT/model.nerf" train_seconds:="$TRAIN_SECONDS"
+  ) > "$OUT/ros.log" 2>&1
+  if [ -f "$OUT/recorder.json" ] && grep -q '"complete"' "$OUT/recorder.json"; then
+    cat "$OUT/recorder.json"
+    printf '| ros | `%s` |\n' "$(cat "$OUT/recorder.json")" >> "$REPORT"
+    return 0
+  fi
+  echo "   FAILED: $(cat "$OUT/recorder.json" 2>/dev/null || tail -n 5 "$OUT/ros.log")"
+  printf '| ros | failed: see ros.log |\n' >> "$REPORT"
+  return 1
+}
+ros_run
 stage eval "$CLI" eval --model "$OUT/model.nerf" --data "$DATA" --split test
-stage extract "$CLI" extract --model "$OUT/model.nerf" --mesh "$OUT/mesh.ply"
-# 6 mm: at 1 cm the deformed renderer's tetrahedral embedding of grid particles breaks apart.
-stage sample "$CLI" sample --mesh "$OUT/mesh.ply" --method grid --spacing 0.006 --out "$OUT/particles.ply"
-SOLVER_OPTIONS=()
-[ "$SOLVER" = fem ] && SOLVER_OPTIONS=(--order "$FEM_ORDER")
-stage simulate "$CLI" simulate --particles "$OUT/particles.ply" --scenario "$SCENARIO" --solver "$SOLVER" \
-  "${SOLVER_OPTIONS[@]}" --out "$OUT/displaced.ply"
-stage render "$CLI" render --model "$OUT/model.nerf" --data "$DATA" --split test --out "$OUT/rendered" \
-  --result "$OUT/displaced.ply"
+TRUTH=()
 if $BUNDLED && [ -f "$OUT/displaced.ply" ]; then
   # Ground truth: the exact T-bar moved by the same displacement, from the same cameras.
-  stage truth "$CLI" synth --scene tbar --out "$OUT/truth" --result "$OUT/displaced.ply"
+  stage truth "$CLI" synth --scene tbar --out "$OUT/truth" --result "$OUT/displaced.ply" && TRUTH=(--truth "$OUT/truth")
 fi
+stage render "$CLI" render --model "$OUT/model.nerf" --data "$DATA" --split test --out "$OUT/rendered" \
+  --result "$OUT/displaced.ply" "${TRUTH[@]}"
 echo "demo outputs are in $OUT (report: $REPORT)"
 exit 0

@@ -115,4 +115,24 @@ sensor_msgs::PointCloud2 toPointCloud2(const demnerf::core::ResultField& result,
   return message;
 }
 
+demnerf::core::ResultField resultFromPointCloud2(const sensor_msgs::PointCloud2& message, bool displaced_positions) {
+  const std::size_t rows = static_cast<std::size_t>(message.width) * message.height;
+  if (rows == 0) throw Error("result cloud is empty");
+  for (const char* name : {"x", "y", "z", "ux", "uy", "uz", "von_mises"}) {
+    if (!hasField(message, name)) throw Error(std::string("result cloud has no '") + name + "' field");
+  }
+  if (message.data.size() < rows * message.point_step) throw Error("result cloud data is shorter than width*height*point_step");
+  demnerf::core::ResultField result;
+  result.resize(rows);
+  sensor_msgs::PointCloud2ConstIterator<float> xyz(message, "x"), u(message, "ux"), vm(message, "von_mises");
+  for (std::size_t i = 0; i < rows; ++i, ++xyz, ++u, ++vm) {
+    result.displacements[i] = {u[0], u[1], u[2]};
+    const Eigen::Vector3d p(xyz[0], xyz[1], xyz[2]);
+    result.positions[i] = displaced_positions ? Eigen::Vector3d(p - result.displacements[i]) : p;
+    result.von_mises[i] = *vm;
+  }
+  result.validate();
+  return result;
+}
+
 }  // namespace dem_nerf

@@ -18,4 +18,9 @@ demnerf::core::ParticleCloud particlesFromPointCloud2(const sensor_msgs::PointCl
 sensor_msgs::PointCloud2 toPointCloud2(const demnerf::core::ResultField& result, const std_msgs::Header& header,
                                        bool displaced_positions);
 
+/// Reads a result cloud back (x y z ux uy uz von_mises); with displaced_positions, x y z are the
+/// deformed positions and the rest positions are x - u. Throws demnerf::core::Error naming a
+/// missing field, an empty cloud or a NaN.
+demnerf::core::ResultField resultFromPointCloud2(const sensor_msgs::PointCloud2& message, bool displaced_positions);
+
 }  // namespace dem_nerf
