@@ -1,0 +1,50 @@
+#pragma once
+// A DEM that lives across load changes, as dem_node needs it: the network trained on one load
+// case answers the next one warm-started, and in parametric mode a load case that only scales
+// the trained one (same regions, forces, torques, body force and prescribed displacements times
+// one factor s inside the trained range) is answered at once, without any training.
+
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "demnerf/core/ply.hpp"
+#include "demnerf/core/scenario.hpp"
+#include "demnerf/mechanics/dem_solver.hpp"
+#include "demnerf/mechanics/simulate.hpp"
+
+namespace demnerf::mechanics {
+
+/// How an answer was obtained: "instant" (parametric prediction, no training), "warm" (trained
+/// from the previous network) or "cold" (a new network).
+struct DemSessionAnswer {
+  SimulationOutcome outcome;
+  std::string mode;
+  double load_scale = 1.0;  ///< instant answers: the factor s relative to the trained load case
+};
+
+/// The factor s with `scaled` = s x `reference` in every load, body force and prescribed
+/// displacement (regions, masks and material equal), or nothing. Tolerance relative to the
+/// reference's size.
+std::optional<double> loadScaleBetween(const core::Scenario& reference, const core::Scenario& scaled,
+                                       double tolerance = 1e-6);
+
+class DemSession {
+ public:
+  explicit DemSession(DemConfig config);
+
+  /// New particles: the next answer trains a new network.
+  void setParticles(core::ParticleCloud cloud);
+  bool hasParticles() const { return cloud_.has_value(); }
+  /// Solves the scenario on the current particles (core::Error when there are none, for bad
+  /// input, or a failed solve; after a failed solve the next answer starts cold).
+  DemSessionAnswer answer(const core::Scenario& scenario);
+
+ private:
+  DemConfig config_;
+  std::optional<core::ParticleCloud> cloud_;
+  std::unique_ptr<DemSolver> solver_;
+  core::Scenario trained_;  ///< the load case the network was trained for
+};
+
+}  // namespace demnerf::mechanics

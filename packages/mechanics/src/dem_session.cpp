@@ -1,0 +1,103 @@
+#include "demnerf/mechanics/dem_session.hpp"
+
+#include <chrono>
+#include <cmath>
+
+#include "demnerf/core/error.hpp"
+#include "demnerf/mechanics/boundary_conditions.hpp"
+
+namespace demnerf::mechanics {
+namespace {
+
+bool sameRegion(const core::Region& a, const core::Region& b) {
+  return a.type == b.type && a.center == b.center && a.size == b.size && a.radius == b.radius && a.normal == b.normal;
+}
+
+bool sameMaterial(const core::Material& a, const core::Material& b) {
+  return a.model == b.model && a.youngs_modulus == b.youngs_modulus && a.poisson_ratio == b.poisson_ratio;
+}
+
+// Pairs of (reference vector, scaled vector) whose common factor decides the load scale.
+struct Pairs {
+  double dot = 0.0, ref2 = 0.0;
+  std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> items;
+  void add(const Eigen::Vector3d& ref, const Eigen::Vector3d& scaled) {
+    dot += ref.dot(scaled);
+    ref2 += ref.squaredNorm();
+    items.emplace_back(ref, scaled);
+  }
+};
+
+}  // namespace
+
+std::optional<double> loadScaleBetween(const core::Scenario& reference, const core::Scenario& scaled,
+                                       double tolerance) {
+  if (!sameMaterial(reference.material, scaled.material) || reference.loads.size() != scaled.loads.size() ||
+      reference.fixtures.size() != scaled.fixtures.size())
+    return std::nullopt;
+  Pairs pairs;
+  for (std::size_t i = 0; i < reference.loads.size(); ++i) {
+    const core::Load &a = reference.loads[i], &b = scaled.loads[i];
+    if (!sameRegion(a.region, b.region)) return std::nullopt;
+    pairs.add(a.force, b.force);
+    pairs.add(a.torque, b.torque);
+  }
+  for (std::size_t i = 0; i < reference.fixtures.size(); ++i) {
+    const core::Fixture &a = reference.fixtures[i], &b = scaled.fixtures[i];
+    if (!sameRegion(a.region, b.region) || a.constrained != b.constrained) return std::nullopt;
+    pairs.add(a.displacement, b.displacement);
+  }
+  pairs.add(reference.body_force, scaled.body_force);
+  if (!(pairs.ref2 > 0)) return std::nullopt;  // nothing to scale: a load-free reference
+  const double s = pairs.dot / pairs.ref2;
+  for (const auto& [ref, other] : pairs.items)
+    if ((other - s * ref).norm() > tolerance * std::sqrt(pairs.ref2)) return std::nullopt;
+  return s;
+}
+
+DemSession::DemSession(DemConfig config) : config_(std::move(config)) {}
+
+void DemSession::setParticles(core::ParticleCloud cloud) {
+  cloud.validate();
+  cloud_ = std::move(cloud);
+  solver_.reset();
+}
+
+DemSessionAnswer DemSession::answer(const core::Scenario& scenario) {
+  if (!cloud_) throw core::Error("DEM: no particles yet (the particle cloud has not arrived)");
+  validateProblem(scenario, *cloud_);
+  const auto start = std::chrono::steady_clock::now();
+  DemSessionAnswer answer;
+  if (solver_ && config_.parametric) {
+    const auto s = loadScaleBetween(trained_, scenario);
+    const auto [lo, hi] = solver_->loadRange();
+    if (s && *s >= lo && *s <= hi) {
+      answer.mode = "instant";
+      answer.load_scale = *s;
+      answer.outcome.field = solver_->evaluate(cloud_->positions, *s);
+    }
+  }
+  if (answer.mode.empty()) {
+    try {
+      if (solver_) {
+        answer.mode = "warm";
+        solver_->setScenario(scenario);
+      } else {
+        answer.mode = "cold";
+        solver_ = std::make_unique<DemSolver>(*cloud_, scenario, config_);
+      }
+      answer.outcome.energy = solver_->solve().energy;
+      answer.outcome.field = solver_->result();
+      trained_ = scenario;
+    } catch (...) {
+      solver_.reset();  // half-trained for a load case it failed on: the next answer starts cold
+      throw;
+    }
+  }
+  for (const auto& u : answer.outcome.field.displacements)
+    answer.outcome.max_displacement = std::max(answer.outcome.max_displacement, u.norm());
+  answer.outcome.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return answer;
+}
+
+}  // namespace demnerf::mechanics

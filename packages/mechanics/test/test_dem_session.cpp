@@ -1,0 +1,71 @@
+#include <gtest/gtest.h>
+
+#include "demnerf/core/error.hpp"
+#include "demnerf/mechanics/box_particles.hpp"
+#include "demnerf/mechanics/dem_session.hpp"
+#include "demnerf/mechanics/reference_problems.hpp"
+
+namespace dm = demnerf::mechanics;
+namespace core = demnerf::core;
+using Eigen::Vector3d;
+
+namespace {
+
+double maxRelativeError(const core::ResultField& field, double p11) {
+  double b = 0;
+  const double a = dm::uniaxialStretchForStress(*dm::makeMaterial(dm::uniaxialTractionScenario(p11).material), p11, &b);
+  double err = 0, ref = 0;
+  for (std::size_t i = 0; i < field.size(); ++i) {
+    const Vector3d& X = field.positions[i];
+    const Vector3d exact((a - 1) * X.x(), (b - 1) * X.y(), (b - 1) * X.z());
+    err = std::max(err, (field.displacements[i] - exact).norm());
+    ref = std::max(ref, exact.norm());
+  }
+  return err / ref;
+}
+
+}  // namespace
+
+TEST(DemSession, LoadScaleIsFoundOnlyForAPureScaling) {
+  const core::Scenario reference = dm::uniaxialTractionScenario(2e5);
+  EXPECT_NEAR(*dm::loadScaleBetween(reference, dm::uniaxialTractionScenario(5e4)), 0.25, 1e-12);
+  core::Scenario moved = dm::uniaxialTractionScenario(2e5);
+  moved.loads[0].region.center.y() += 0.1;  // another patch
+  EXPECT_FALSE(dm::loadScaleBetween(reference, moved));
+  core::Scenario turned = dm::uniaxialTractionScenario(2e5);
+  turned.loads[0].force.y() = 1e4;  // not parallel to the trained force
+  EXPECT_FALSE(dm::loadScaleBetween(reference, turned));
+  core::Scenario stiffer = dm::uniaxialTractionScenario(2e5);
+  stiffer.material.youngs_modulus *= 2;
+  EXPECT_FALSE(dm::loadScaleBetween(reference, stiffer));
+}
+
+TEST(DemSession, ScaledLoadsAreAnsweredInstantlyOthersWarmStarted) {
+  dm::DemConfig config;
+  config.width = 16;
+  config.depth = 2;
+  config.adam_iterations = 300;
+  config.parametric = true;
+  config.load_range_min = 0.0;
+  config.load_range_max = 1.5;
+  config.threads = 1;
+  dm::DemSession session(config);
+  EXPECT_THROW(session.answer(dm::uniaxialTractionScenario(2e5)), core::Error);  // no particles yet
+  session.setParticles(dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(6, 6, 6)));
+
+  const dm::DemSessionAnswer first = session.answer(dm::uniaxialTractionScenario(2e5));
+  EXPECT_EQ(first.mode, "cold");
+  EXPECT_LT(maxRelativeError(first.outcome.field, 2e5), 0.05);
+
+  const dm::DemSessionAnswer half = session.answer(dm::uniaxialTractionScenario(1e5));
+  EXPECT_EQ(half.mode, "instant");
+  EXPECT_NEAR(half.load_scale, 0.5, 1e-12);
+  EXPECT_LT(maxRelativeError(half.outcome.field, 1e5), 0.05);
+  std::cout << "cold " << first.outcome.seconds << " s, instant " << half.outcome.seconds << " s\n";
+  EXPECT_LT(half.outcome.seconds, 0.1 * first.outcome.seconds);
+
+  // Outside the trained range (3.2e5 > 1.5 x 2e5): trained again, warm-started.
+  const dm::DemSessionAnswer beyond = session.answer(dm::uniaxialTractionScenario(3.2e5));
+  EXPECT_EQ(beyond.mode, "warm");
+  EXPECT_LT(maxRelativeError(beyond.outcome.field, 3.2e5), 0.05);
+}
