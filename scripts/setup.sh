@@ -17,7 +17,7 @@ PACKAGES=(
   libtorch-dev libopenblas0-pthread libeigen3-dev libpcl-dev libopencv-dev libcgal-dev
   libyaml-cpp-dev nlohmann-json3-dev
   # tests and benchmarks
-  libgtest-dev libgmock-dev libbenchmark-dev
+  libgtest-dev libgmock-dev libbenchmark-dev python3-sensor-msgs
 )
 
 missing=()
