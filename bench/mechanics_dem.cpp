@@ -3,6 +3,7 @@
 // Usage: mechanics_dem key=value ...
 //   case=uniaxial|tbar  iters=N lr=R final=RATIO lbfgs=N width=W depth=D threads=T jitter=0|1
 //   band=CELLS steps=LOAD_STEPS cells=N (uniaxial) h=M (T-bar particle cell) fem_h=M (T-bar FEM)
+//   reference=RESULT.ply (default bench/data/tbar_twist_fem_reference.ply, the converged FEM)
 //   fem_cache=PATH seeds=N double=0|1 verbose=0|1 activation=tanh|softplus|...
 //   newton=0|1 newton_every=N newton_its=N (output-layer Newton, DemConfig::output_newton)
 // Prints one markdown row per seed and the median time / error.
@@ -17,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "demnerf/core/ply.hpp"
 #include "demnerf/core/scenario.hpp"
 #include "mechanics_bench_common.hpp"
 #include "demnerf/mechanics/box_particles.hpp"
@@ -89,9 +91,24 @@ int main(int argc, char** argv) {
                                                       : std::string(DEMNERF_ROOT) + "/config/scenarios/tbar_twist.yaml");
     const double h = num("h", 0.0075), fem_h = num("fem_h", 0.01);
     cloud = tbarParticles(h);
+    // Default reference: the converged FEM (bench/mechanics_tbar_fem, finest level) at these grid
+    // particles. fem_h=... or fem_cache=... ask for an FEM solve at that mesh size instead.
+    const std::string reference = a.count("reference") ? a["reference"]
+                                                       : std::string(DEMNERF_ROOT) + "/bench/data/tbar_twist_fem_reference.ply";
+    if (!a.count("fem_h") && !a.count("fem_cache") && std::ifstream(reference).good()) {
+      const core::ResultField field = core::readResult(reference);
+      bool same = field.size() == cloud.size();
+      for (std::size_t i = 0; same && i < cloud.size(); ++i) same = (field.positions[i] - cloud.positions[i]).norm() < 1e-6;
+      if (same) {
+        ref = field.displacements;
+        std::fprintf(stderr, "FEM reference: %s\n", reference.c_str());
+      } else {
+        std::fprintf(stderr, "%s holds other particles than h=%g: solving the FEM at fem_h=%g instead\n", reference.c_str(), h, fem_h);
+      }
+    }
     const std::string cache = a.count("fem_cache") ? a["fem_cache"]
                                                    : "/tmp/dem_tbar_fem_" + std::to_string(h) + "_" + std::to_string(fem_h) + ".bin";
-    std::ifstream in(cache, std::ios::binary);
+    std::ifstream in(ref.empty() ? cache : std::string(), std::ios::binary);
     if (in) {
       ref.resize(cloud.size());
       in.read(reinterpret_cast<char*>(ref.data()), static_cast<std::streamsize>(ref.size() * sizeof(Vector3d)));

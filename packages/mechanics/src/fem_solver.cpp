@@ -3,11 +3,13 @@
 #include <Eigen/IterativeLinearSolvers>
 #include <Eigen/LU>
 #include <Eigen/SparseCholesky>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <iostream>
 #include <limits>
 #include <sstream>
+#include <thread>
 
 #include "demnerf/core/error.hpp"
 #include "demnerf/mechanics/boundary_conditions.hpp"
@@ -52,6 +54,109 @@ Eigen::Matrix3d deformationGradient(const Eigen::MatrixXd& dNdX, const Eigen::Ve
   return F;
 }
 
+// Runs fn(begin, end) over [0, count) split into `threads` contiguous chunks.
+template <typename Fn>
+void parallelFor(int count, int threads, const Fn& fn) {
+  if (threads <= 1 || count < 2 * threads) {
+    fn(0, count);
+    return;
+  }
+  std::vector<std::thread> pool;
+  const int chunk = (count + threads - 1) / threads;
+  for (int t = 1; t < threads; ++t) {
+    const int begin = std::min(count, t * chunk), end = std::min(count, (t + 1) * chunk);
+    if (begin < end) pool.emplace_back([&fn, begin, end] { fn(begin, end); });
+  }
+  fn(0, std::min(count, chunk));
+  for (auto& t : pool) t.join();
+}
+
+double secondsSince(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+// Nested dissection of the node graph by coordinate bisection: split the nodes at the median
+// coordinate of their longest axis, take as separator the smaller of the two sets of nodes that
+// touch the other side, order both halves recursively and the separator last. (On the T-bar
+// meshes tried it gave more fill than AMD; see FemConfig::ordering.)
+void dissect(std::vector<int>& nodes, int begin, int end, const std::vector<Eigen::Vector3d>& x,
+             const std::vector<int>& adj_start, const std::vector<int>& adj, std::vector<int>& side,
+             std::vector<int>& out) {
+  const int count = end - begin;
+  if (count <= 96) {
+    out.insert(out.end(), nodes.begin() + begin, nodes.begin() + end);
+    return;
+  }
+  // Try the median split along each axis and keep the one with the smallest separator (bodies
+  // like a T-bar are badly split along the longest axis of their bounding box).
+  std::vector<int> best_sep;
+  int best_axis = -1;
+  double best_split = 0;
+  std::vector<double> coord(count);
+  for (int axis = 0; axis < 3; ++axis) {
+    for (int i = 0; i < count; ++i) coord[i] = x[nodes[begin + i]](axis);
+    std::nth_element(coord.begin(), coord.begin() + count / 2, coord.end());
+    const double split = coord[count / 2];
+    // Side 1: below the split, 2: at or above it; 0 marks nodes outside this subset.
+    int below = 0;
+    for (int i = begin; i < end; ++i) {
+      side[nodes[i]] = x[nodes[i]](axis) < split ? 1 : 2;
+      below += side[nodes[i]] == 1;
+    }
+    std::vector<int> touch[3];
+    if (below > 0 && below < count)
+      for (int i = begin; i < end; ++i) {
+        const int v = nodes[i], s = side[v];
+        for (int k = adj_start[v]; k < adj_start[v + 1]; ++k)
+          if (side[adj[k]] != 0 && side[adj[k]] != s) {
+            touch[s].push_back(v);
+            break;
+          }
+      }
+    for (int i = begin; i < end; ++i) side[nodes[i]] = 0;
+    if (below == 0 || below == count) continue;
+    const int sep_side = touch[1].size() <= touch[2].size() ? 1 : 2;
+    if (best_axis < 0 || touch[sep_side].size() < best_sep.size()) {
+      best_axis = axis;
+      best_split = split;
+      best_sep = touch[sep_side];
+    }
+  }
+  if (best_axis < 0) {  // all nodes on one point: nothing to split
+    out.insert(out.end(), nodes.begin() + begin, nodes.begin() + end);
+    return;
+  }
+  for (int i = begin; i < end; ++i) side[nodes[i]] = x[nodes[i]](best_axis) < best_split ? 1 : 2;
+  for (int v : best_sep) side[v] = 3;
+  std::vector<int> part[4];
+  for (int i = begin; i < end; ++i) part[side[nodes[i]]].push_back(nodes[i]);
+  for (int i = begin; i < end; ++i) side[nodes[i]] = 0;
+  if (part[1].empty() || part[2].empty()) {  // no progress (all on one coordinate): stop here
+    out.insert(out.end(), nodes.begin() + begin, nodes.begin() + end);
+    return;
+  }
+  int pos = begin;
+  const int b1 = pos;
+  for (int v : part[1]) nodes[pos++] = v;
+  const int b2 = pos;
+  for (int v : part[2]) nodes[pos++] = v;
+  const int b3 = pos;
+  for (int v : part[3]) nodes[pos++] = v;
+  dissect(nodes, b1, b2, x, adj_start, adj, side, out);
+  dissect(nodes, b2, b3, x, adj_start, adj, side, out);
+  out.insert(out.end(), part[3].begin(), part[3].end());
+}
+
+std::vector<int> nestedDissection(const std::vector<Eigen::Vector3d>& x, const std::vector<int>& adj_start,
+                                  const std::vector<int>& adj) {
+  const int n_nodes = static_cast<int>(x.size());
+  std::vector<int> nodes(n_nodes), side(n_nodes, 0), out;
+  for (int i = 0; i < n_nodes; ++i) nodes[i] = i;
+  out.reserve(n_nodes);
+  dissect(nodes, 0, n_nodes, x, adj_start, adj, side, out);
+  return out;
+}
+
 }  // namespace
 
 struct FemSolver::Impl {
@@ -61,8 +166,9 @@ struct FemSolver::Impl {
   std::unique_ptr<HyperelasticMaterial> material;
   int n = 4;  // nodes per element
   int nq = 1;
-  std::vector<Eigen::MatrixXd> dNdX;  // per element and quadrature point (n x 3)
-  std::vector<double> weight;         // reference volume weight of each quadrature point
+  int threads = 1;
+  std::vector<double> dNdX;    // per element and quadrature point, n x 3 row-major
+  std::vector<double> weight;  // reference volume weight of each quadrature point
   std::vector<Eigen::Matrix<double, 4, 3>> grad_l;  // per element d L / d X
   Eigen::VectorXd f_ext;              // consistent nodal forces at full load
   Eigen::VectorXd prescribed;         // full-load values of constrained dofs
@@ -70,8 +176,14 @@ struct FemSolver::Impl {
   int n_free = 0;
   Eigen::VectorXd u;
   FemResult result;
-  Eigen::SimplicialLDLT<SparseMatrix> ldlt;
-  bool analysed = false;
+  // Free-free tangent, lower triangle, pattern fixed at setup; `scatter` holds for every element
+  // and local dof pair (r >= c, packed) the position of its entry in K's values (-1: constrained).
+  SparseMatrix K;
+  std::vector<int> scatter;
+  std::vector<std::vector<int>> colours;  // element ids; no two in a colour share a node
+  Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::NaturalOrdering<int>> ldlt_nd;  // nodes pre-ordered
+  Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt_amd;
+  bool analysed = false, factor_valid = false;
   // Interpolation grid: element ids per cell.
   Eigen::Vector3d grid_lower, grid_cell;
   Eigen::Vector3i grid_dims;
@@ -89,14 +201,26 @@ struct FemSolver::Impl {
 
   void setup();
   void setupLoads();
+  void setupPattern();
   void buildGrid();
   double energy(const Eigen::VectorXd& x, double scale) const;
-  // Residual R = f_int - scale f_ext over all dofs, the free-free tangent, and K_fc du_c.
-  double assemble(const Eigen::VectorXd& x, double scale, const Eigen::VectorXd& du, Eigen::VectorXd& R,
-                  SparseMatrix& K, Eigen::VectorXd& Kdu_c, double& internal_norm) const;
+  // Residual R = f_int - scale f_ext over all dofs, the free-free tangent into K, and K_fc du_c.
+  double assemble(const Eigen::VectorXd& x, double scale, const Eigen::VectorXd& du, bool du_constrained,
+                  Eigen::VectorXd& R, Eigen::VectorXd& Kdu_c, double& internal_norm);
+  template <int N>
+  double assembleT(const Eigen::VectorXd& x, const Eigen::VectorXd& du, bool du_constrained, Eigen::VectorXd& f_int,
+                   Eigen::VectorXd& Kdu_c);
+  template <int N>
+  double elementEnergy(const Eigen::VectorXd& x, int e) const;
   bool newton(double scale);
-  Eigen::VectorXd solveLinear(const SparseMatrix& K, const Eigen::VectorXd& rhs);
+  // eta: relative accuracy asked of an iterative solve (inexact Newton forcing term).
+  Eigen::VectorXd solveLinear(const Eigen::VectorXd& rhs, double eta);
   int locate(const Eigen::Vector3d& x, Eigen::Vector4d& L) const;
+  bool nd() const { return config.ordering == FemConfig::Ordering::kNestedDissection; }
+  Eigen::VectorXd factorSolve(const Eigen::VectorXd& b) const {
+    if (nd()) return ldlt_nd.solve(b);
+    return ldlt_amd.solve(b);
+  }
 };
 
 void FemSolver::Impl::setup() {
@@ -104,10 +228,13 @@ void FemSolver::Impl::setup() {
   material = makeMaterial(scenario.material);
   n = mesh.nodesPerElement();
   if (mesh.elements.empty()) throw core::Error("the FEM mesh has no elements");
+  if (config.threads < 0) throw core::Error("FemConfig threads must be >= 0 (0: all cores), got " + std::to_string(config.threads));
+  threads = config.threads > 0 ? config.threads : std::max(1u, std::thread::hardware_concurrency());
   const auto rule = volumeRule(mesh.order);
   nq = static_cast<int>(rule.size());
   const int ndof = 3 * static_cast<int>(mesh.nodes.size());
   f_ext = Eigen::VectorXd::Zero(ndof);
+  dNdX.reserve(mesh.elements.size() * nq * n * 3);
   for (int e = 0; e < static_cast<int>(mesh.elements.size()); ++e) {
     for (int a = 0; a < n; ++a)
       if (mesh.elements[e][a] < 0 || mesh.elements[e][a] >= static_cast<int>(mesh.nodes.size()))
@@ -118,7 +245,9 @@ void FemSolver::Impl::setup() {
       throw core::Error("FEM element " + std::to_string(e) + " is inverted or degenerate (volume " + std::to_string(volume) + ")");
     grad_l.push_back(G);
     for (const auto& [L, w] : rule) {
-      dNdX.push_back(tetShapeDerivatives(mesh.order, L) * G);
+      const Eigen::MatrixXd D = tetShapeDerivatives(mesh.order, L) * G;
+      for (int a = 0; a < n; ++a)
+        for (int J = 0; J < 3; ++J) dNdX.push_back(D(a, J));
       weight.push_back(w * volume);
       const Eigen::VectorXd N = tetShape(mesh.order, L);
       for (int a = 0; a < n; ++a) f_ext.segment<3>(3 * mesh.elements[e][a]) += N(a) * w * volume * scenario.body_force;
@@ -133,14 +262,120 @@ void FemSolver::Impl::setup() {
         free_index[3 * fixed.index[k] + c] = -1;
         prescribed(3 * fixed.index[k] + c) = fixed.value[k](c);
       }
-  n_free = 0;
-  for (int& f : free_index)
-    if (f == 0) f = n_free++;
   setupLoads();
+  setupPattern();
   u = Eigen::VectorXd::Zero(ndof);
   buildGrid();
 }
 
+void FemSolver::Impl::setupPattern() {
+  const int n_nodes = static_cast<int>(mesh.nodes.size());
+  const int n_el = static_cast<int>(mesh.elements.size());
+  // Node -> elements (CSR).
+  std::vector<int> start(n_nodes + 1, 0), list(static_cast<std::size_t>(n_el) * n);
+  for (const auto& el : mesh.elements)
+    for (int a = 0; a < n; ++a) ++start[el[a] + 1];
+  for (int i = 0; i < n_nodes; ++i) start[i + 1] += start[i];
+  {
+    std::vector<int> fill(start.begin(), start.end() - 1);
+    for (int e = 0; e < n_el; ++e)
+      for (int a = 0; a < n; ++a) list[fill[mesh.elements[e][a]]++] = e;
+  }
+  // Greedy colouring: an element takes the first colour none of its node neighbours has.
+  std::vector<int> colour(n_el, -1), stamp;
+  for (int e = 0; e < n_el; ++e) {
+    for (int a = 0; a < n; ++a) {
+      const int node = mesh.elements[e][a];
+      for (int k = start[node]; k < start[node + 1]; ++k) {
+        const int c = colour[list[k]];
+        if (c < 0) continue;
+        if (c >= static_cast<int>(stamp.size())) stamp.resize(c + 1, -1);
+        stamp[c] = e;
+      }
+    }
+    int c = 0;
+    while (c < static_cast<int>(stamp.size()) && stamp[c] == e) ++c;
+    colour[e] = c;
+    if (c >= static_cast<int>(colours.size())) colours.resize(c + 1);
+    colours[c].push_back(e);
+  }
+  // Node adjacency (CSR, sorted, self included).
+  std::vector<int> adj_start(n_nodes + 1, 0), adj;
+  {
+    std::vector<int> mark(n_nodes, -1), neighbours;
+    for (int node = 0; node < n_nodes; ++node) {
+      neighbours.clear();
+      for (int k = start[node]; k < start[node + 1]; ++k)
+        for (int a = 0; a < n; ++a) {
+          const int other = mesh.elements[list[k]][a];
+          if (mark[other] != node) {
+            mark[other] = node;
+            neighbours.push_back(other);
+          }
+        }
+      std::sort(neighbours.begin(), neighbours.end());
+      adj.insert(adj.end(), neighbours.begin(), neighbours.end());
+      adj_start[node + 1] = static_cast<int>(adj.size());
+    }
+  }
+  // Node order for the factorisation, then free dofs numbered node by node in that order.
+  std::vector<int> order;
+  if (config.ordering == FemConfig::Ordering::kNestedDissection) {
+    order = nestedDissection(mesh.nodes, adj_start, adj);
+  } else {
+    order.resize(n_nodes);
+    for (int i = 0; i < n_nodes; ++i) order[i] = i;
+  }
+  std::vector<int> rank(n_nodes);
+  for (int i = 0; i < n_nodes; ++i) rank[order[i]] = i;
+  n_free = 0;
+  for (int node : order)
+    for (int c = 0; c < 3; ++c)
+      if (free_index[3 * node + c] >= 0) free_index[3 * node + c] = n_free++;
+  // Column pattern of the lower triangle: rows of a column come out sorted when the neighbour
+  // nodes are visited in increasing rank.
+  std::vector<int> outer(n_free + 1, 0), inner, neighbours;
+  for (int node : order) {
+    neighbours.clear();
+    for (int k = adj_start[node]; k < adj_start[node + 1]; ++k)
+      if (rank[adj[k]] >= rank[node]) neighbours.push_back(adj[k]);
+    std::sort(neighbours.begin(), neighbours.end(), [&](int x, int y) { return rank[x] < rank[y]; });
+    for (int c = 0; c < 3; ++c) {
+      const int col = free_index[3 * node + c];
+      if (col < 0) continue;
+      for (int other : neighbours)
+        for (int r = 0; r < 3; ++r) {
+          const int row = free_index[3 * other + r];
+          if (row >= col) inner.push_back(row);
+        }
+      outer[col + 1] = static_cast<int>(inner.size());
+    }
+  }
+  K.resize(n_free, n_free);
+  K.resizeNonZeros(static_cast<Eigen::Index>(inner.size()));
+  std::copy(outer.begin(), outer.end(), K.outerIndexPtr());
+  std::copy(inner.begin(), inner.end(), K.innerIndexPtr());
+  std::fill(K.valuePtr(), K.valuePtr() + inner.size(), 0.0);
+  // Scatter positions.
+  const int m = 3 * n, packed = m * (m + 1) / 2;
+  scatter.assign(static_cast<std::size_t>(n_el) * packed, -1);
+  parallelFor(n_el, threads, [&](int begin, int end) {
+    for (int e = begin; e < end; ++e)
+      for (int r = 0; r < m; ++r) {
+        const int fr = free_index[3 * mesh.elements[e][r / 3] + r % 3];
+        if (fr < 0) continue;
+        for (int c = 0; c <= r; ++c) {
+          const int fc = free_index[3 * mesh.elements[e][c / 3] + c % 3];
+          if (fc < 0) continue;
+          const int row = std::max(fr, fc), col = std::min(fr, fc);
+          const int* first = K.innerIndexPtr() + K.outerIndexPtr()[col];
+          const int* last = K.innerIndexPtr() + K.outerIndexPtr()[col + 1];
+          scatter[static_cast<std::size_t>(e) * packed + r * (r + 1) / 2 + c] =
+              static_cast<int>(std::lower_bound(first, last, row) - K.innerIndexPtr());
+        }
+      }
+  });
+}
 void FemSolver::Impl::setupLoads() {
   const auto faces = boundaryFaces(mesh);
   const auto rule = faceRule();
@@ -184,97 +419,179 @@ void FemSolver::Impl::setupLoads() {
   }
 }
 
-double FemSolver::Impl::energy(const Eigen::VectorXd& x, double scale) const {
-  double total = -scale * f_ext.dot(x);
-  for (int e = 0; e < static_cast<int>(mesh.elements.size()); ++e) {
-    const Eigen::VectorXd ue = elementDofs(x, e);
-    for (int q = 0; q < nq; ++q) {
-      const double psi = material->energy(deformationGradient(dNdX[e * nq + q], ue));
-      if (!std::isfinite(psi)) return std::numeric_limits<double>::infinity();
-      total += psi * weight[e * nq + q];
-    }
+
+template <int N>
+double FemSolver::Impl::elementEnergy(const Eigen::VectorXd& x, int e) const {
+  const auto& el = mesh.elements[e];
+  double psi = 0;
+  for (int q = 0; q < nq; ++q) {
+    const Eigen::Map<const Eigen::Matrix<double, N, 3, Eigen::RowMajor>> D(&dNdX[(static_cast<std::size_t>(e) * nq + q) * N * 3]);
+    Eigen::Matrix3d F = Eigen::Matrix3d::Identity();
+    for (int a = 0; a < N; ++a) F.noalias() += x.segment<3>(3 * el[a]) * D.row(a);
+    psi += material->energy(F) * weight[e * nq + q];
   }
+  return psi;
+}
+
+double FemSolver::Impl::energy(const Eigen::VectorXd& x, double scale) const {
+  const int n_el = static_cast<int>(mesh.elements.size());
+  std::vector<double> psi(n_el);
+  parallelFor(n_el, threads, [&](int begin, int end) {
+    for (int e = begin; e < end; ++e) psi[e] = n == 4 ? elementEnergy<4>(x, e) : elementEnergy<10>(x, e);
+  });
+  // Summed in element order whatever the thread count.
+  double total = -scale * f_ext.dot(x);
+  for (double p : psi) total += p;
+  return std::isfinite(total) ? total : std::numeric_limits<double>::infinity();
+}
+
+template <int N>
+double FemSolver::Impl::assembleT(const Eigen::VectorXd& x, const Eigen::VectorXd& du, bool du_constrained,
+                                  Eigen::VectorXd& f_int, Eigen::VectorXd& Kdu_c) {
+  constexpr int M = 3 * N, packed = M * (M + 1) / 2;
+  using ElementMatrix = Eigen::Matrix<double, M, M>;
+  const int n_el = static_cast<int>(mesh.elements.size());
+  std::vector<double> psi(n_el, 0.0);
+  double* values = K.valuePtr();
+  for (const std::vector<int>& colour : colours) {
+    // No two elements of a colour share a node, so their scatters never touch the same entry and
+    // every entry receives its contributions in colour order: deterministic for any thread count.
+    parallelFor(static_cast<int>(colour.size()), threads, [&](int begin, int end) {
+      Eigen::Matrix<double, M, 1> fe;
+      ElementMatrix Ke;
+      for (int k = begin; k < end; ++k) {
+        const int e = colour[k];
+        const auto& el = mesh.elements[e];
+        fe.setZero();
+        Ke.setZero();
+        double psi_e = 0;
+        for (int q = 0; q < nq; ++q) {
+          const Eigen::Map<const Eigen::Matrix<double, N, 3, Eigen::RowMajor>> D(
+              &dNdX[(static_cast<std::size_t>(e) * nq + q) * N * 3]);
+          Eigen::Matrix3d F = Eigen::Matrix3d::Identity();
+          for (int a = 0; a < N; ++a) F.noalias() += x.segment<3>(3 * el[a]) * D.row(a);
+          if (!(F.determinant() > 0.0)) {
+            psi_e = std::numeric_limits<double>::infinity();
+            break;
+          }
+          const double w = weight[e * nq + q];
+          psi_e += material->energy(F) * w;
+          const Eigen::Matrix3d P = w * material->stress(F);
+          const Tangent A = w * material->tangent(F);
+          // f_a = P dN_a/dX.
+          const Eigen::Matrix<double, 3, N> PD = P * D.transpose();
+          for (int a = 0; a < N; ++a) fe.template segment<3>(3 * a) += PD.col(a);
+          // K(3a+i, 3b+k) = sum_JL D(a,J) A(3i+J, 3k+L) D(b,L): first contract L, then J.
+          for (int kk = 0; kk < 3; ++kk) {
+            const Eigen::Matrix<double, 9, N> AD = A.template block<9, 3>(0, 3 * kk) * D.transpose();
+            for (int i = 0; i < 3; ++i) {
+              const Eigen::Matrix<double, N, N> block = D * AD.template middleRows<3>(3 * i);
+              for (int b = 0; b < N; ++b)
+                for (int a = 0; a < N; ++a) Ke(3 * a + i, 3 * b + kk) += block(a, b);
+            }
+          }
+        }
+        psi[e] = psi_e;
+        if (!std::isfinite(psi_e)) continue;
+        const int* pos = &scatter[static_cast<std::size_t>(e) * packed];
+        for (int r = 0; r < M; ++r) {
+          const int gr = 3 * el[r / 3] + r % 3;
+          f_int(gr) += fe(r);
+          for (int c = 0; c <= r; ++c) {
+            const int p = pos[r * (r + 1) / 2 + c];
+            if (p >= 0) values[p] += Ke(r, c);
+          }
+        }
+        if (du_constrained)
+          for (int r = 0; r < M; ++r) {
+            const int fr = free_index[3 * el[r / 3] + r % 3];
+            if (fr < 0) continue;
+            for (int c = 0; c < M; ++c) {
+              const int gc = 3 * el[c / 3] + c % 3;
+              if (free_index[gc] < 0) Kdu_c(fr) += Ke(r, c) * du(gc);
+            }
+          }
+      }
+    });
+  }
+  double total = 0;
+  for (double p : psi) total += p;
   return total;
 }
 
-double FemSolver::Impl::assemble(const Eigen::VectorXd& x, double scale, const Eigen::VectorXd& du,
-                                 Eigen::VectorXd& R, SparseMatrix& K, Eigen::VectorXd& Kdu_c,
-                                 double& internal_norm) const {
-  const int ndof = static_cast<int>(x.size());
-  Eigen::VectorXd f_int = Eigen::VectorXd::Zero(ndof);
+double FemSolver::Impl::assemble(const Eigen::VectorXd& x, double scale, const Eigen::VectorXd& du, bool du_constrained,
+                                 Eigen::VectorXd& R, Eigen::VectorXd& Kdu_c, double& internal_norm) {
+  Eigen::VectorXd f_int = Eigen::VectorXd::Zero(x.size());
   Kdu_c = Eigen::VectorXd::Zero(n_free);
-  std::vector<Eigen::Triplet<double>> triplets;
-  triplets.reserve(mesh.elements.size() * 9 * n * n);
-  double psi_total = 0;
-  Eigen::MatrixXd B(9, 3 * n);
-  for (int e = 0; e < static_cast<int>(mesh.elements.size()); ++e) {
-    const Eigen::VectorXd ue = elementDofs(x, e);
-    Eigen::VectorXd fe = Eigen::VectorXd::Zero(3 * n);
-    Eigen::MatrixXd Ke = Eigen::MatrixXd::Zero(3 * n, 3 * n);
-    for (int q = 0; q < nq; ++q) {
-      const Eigen::MatrixXd& D = dNdX[e * nq + q];
-      const Eigen::Matrix3d F = deformationGradient(D, ue);
-      if (!(F.determinant() > 0.0)) return std::numeric_limits<double>::infinity();
-      psi_total += material->energy(F) * weight[e * nq + q];
-      const Eigen::Matrix3d P = material->stress(F);
-      const Tangent A = material->tangent(F);
-      // B maps element dofs to F flattened row by row: dF_iJ = sum_a du_ai dN_a/dX_J.
-      B.setZero();
-      Eigen::Matrix<double, 9, 1> p;
-      for (int i = 0; i < 3; ++i)
-        for (int J = 0; J < 3; ++J) {
-          p(3 * i + J) = P(i, J);
-          for (int a = 0; a < n; ++a) B(3 * i + J, 3 * a + i) = D(a, J);
-        }
-      const double w = weight[e * nq + q];
-      fe.noalias() += w * B.transpose() * p;
-      Ke.noalias() += w * B.transpose() * A * B;
-    }
-    for (int r = 0; r < 3 * n; ++r) {
-      const int gr = 3 * mesh.elements[e][r / 3] + r % 3;
-      f_int(gr) += fe(r);
-      const int fr = free_index[gr];
-      if (fr < 0) continue;
-      for (int c = 0; c < 3 * n; ++c) {
-        const int gc = 3 * mesh.elements[e][c / 3] + c % 3;
-        const int fc = free_index[gc];
-        if (fc >= 0)
-          triplets.emplace_back(fr, fc, Ke(r, c));
-        else
-          Kdu_c(fr) += Ke(r, c) * du(gc);
-      }
-    }
-  }
+  std::fill(K.valuePtr(), K.valuePtr() + K.nonZeros(), 0.0);
+  const double psi = n == 4 ? assembleT<4>(x, du, du_constrained, f_int, Kdu_c) : assembleT<10>(x, du, du_constrained, f_int, Kdu_c);
+  if (!std::isfinite(psi)) return std::numeric_limits<double>::infinity();
   R = f_int - scale * f_ext;
   internal_norm = f_int.norm();
-  K.resize(n_free, n_free);
-  K.setFromTriplets(triplets.begin(), triplets.end());
-  return psi_total - scale * f_ext.dot(x);
+  return psi - scale * f_ext.dot(x);
 }
 
-Eigen::VectorXd FemSolver::Impl::solveLinear(const SparseMatrix& K, const Eigen::VectorXd& rhs) {
-  if (config.linear_solver == FemConfig::LinearSolver::kLDLT) {
-    if (!analysed) {
-      ldlt.analyzePattern(K);
-      analysed = true;
-    }
-    ldlt.factorize(K);
-    if (ldlt.info() != Eigen::Success) throw core::Error("FEM: the tangent stiffness could not be factorised");
-    return ldlt.solve(rhs);
+Eigen::VectorXd FemSolver::Impl::solveLinear(const Eigen::VectorXd& rhs, double eta) {
+  if (config.linear_solver == FemConfig::LinearSolver::kConjugateGradient) {
+    Eigen::ConjugateGradient<SparseMatrix, Eigen::Lower, Eigen::IncompleteCholesky<double>> cg;
+    cg.setTolerance(config.cg_tolerance);
+    cg.setMaxIterations(10 * n_free);
+    cg.compute(K);
+    Eigen::VectorXd x = cg.solve(rhs);
+    if (cg.info() != Eigen::Success) throw core::Error("FEM: conjugate gradients did not converge");
+    result.cg_iterations += static_cast<int>(cg.iterations());
+    return x;
   }
-  Eigen::ConjugateGradient<SparseMatrix, Eigen::Lower | Eigen::Upper, Eigen::IncompleteCholesky<double>> cg;
-  cg.setTolerance(config.cg_tolerance);
-  cg.setMaxIterations(10 * n_free);
-  cg.compute(K);
-  Eigen::VectorXd x = cg.solve(rhs);
-  if (cg.info() != Eigen::Success) throw core::Error("FEM: conjugate gradients did not converge");
+  auto t0 = std::chrono::steady_clock::now();
+  if (factor_valid && config.reuse_factorisation_iterations > 0) {
+    // Newton tangents change little between iterations and load steps: the last factorisation
+    // is an excellent preconditioner, and a few triangular solves cost far less than a new one.
+    const auto Ks = K.selfadjointView<Eigen::Lower>();
+    const double target = eta * rhs.norm();
+    Eigen::VectorXd x = Eigen::VectorXd::Zero(n_free), r = rhs, z = factorSolve(r), p = z, Ap(n_free);
+    double rz = r.dot(z);
+    for (int it = 1; it <= config.reuse_factorisation_iterations; ++it) {
+      Ap.noalias() = Ks * p;
+      const double pAp = p.dot(Ap);
+      if (!(pAp > 0.0)) break;  // not positive definite along p: refactorise
+      const double alpha = rz / pAp;
+      x += alpha * p;
+      r -= alpha * Ap;
+      ++result.cg_iterations;
+      if (r.norm() <= target) {
+        result.solve_seconds += secondsSince(t0);
+        return x;
+      }
+      z = factorSolve(r);
+      const double rz_new = r.dot(z);
+      p = z + (rz_new / rz) * p;
+      rz = rz_new;
+    }
+    result.solve_seconds += secondsSince(t0);
+    t0 = std::chrono::steady_clock::now();
+  }
+  if (!analysed) {
+    if (nd()) ldlt_nd.analyzePattern(K); else ldlt_amd.analyzePattern(K);
+    analysed = true;
+  }
+  if (nd()) ldlt_nd.factorize(K); else ldlt_amd.factorize(K);
+  ++result.factorisations;
+  factor_valid = (nd() ? ldlt_nd.info() : ldlt_amd.info()) == Eigen::Success;
+  if (!factor_valid) throw core::Error("FEM: the tangent stiffness could not be factorised");
+  result.factorisation_seconds += secondsSince(t0);
+  if (config.verbose && result.factorisations == 1)
+    std::cerr << "fem: " << n_free << " free dofs, nnz(K lower) " << K.nonZeros() << ", nnz(L) "
+              << (nd() ? ldlt_nd.matrixL().nestedExpression().nonZeros() : ldlt_amd.matrixL().nestedExpression().nonZeros())
+              << ", first factorisation " << secondsSince(t0) << " s\n";
+  t0 = std::chrono::steady_clock::now();
+  Eigen::VectorXd x = factorSolve(rhs);
+  result.solve_seconds += secondsSince(t0);
   return x;
 }
 
 bool FemSolver::Impl::newton(double scale) {
   const int ndof = static_cast<int>(u.size());
   Eigen::VectorXd R, Kdu_c, du(ndof);
-  SparseMatrix K;
   double internal_norm = 0, last_update = std::numeric_limits<double>::infinity();
   for (int it = 0; it <= config.max_newton_iterations; ++it) {
     // The constrained dofs move towards their targets as part of the Newton step so that large
@@ -284,7 +601,9 @@ bool FemSolver::Impl::newton(double scale) {
       du(d) = free_index[d] < 0 ? scale * prescribed(d) - u(d) : 0.0;
       if (free_index[d] < 0 && std::abs(du(d)) > 0) at_target = false;
     }
-    const double e0 = assemble(u, scale, du, R, K, Kdu_c, internal_norm);
+    auto t0 = std::chrono::steady_clock::now();
+    const double e0 = assemble(u, scale, du, !at_target, R, Kdu_c, internal_norm);
+    result.assembly_seconds += secondsSince(t0);
     if (!std::isfinite(e0)) return false;
     Eigen::VectorXd R_free(n_free);
     for (int d = 0; d < ndof; ++d)
@@ -296,12 +615,16 @@ bool FemSolver::Impl::newton(double scale) {
     if (at_target && (res <= config.tolerance * ref ||
                       (it > 0 && last_update <= config.displacement_tolerance * u.norm()))) return true;
     if (it == config.max_newton_iterations) break;
-    const Eigen::VectorXd du_free = solveLinear(K, -(R_free + Kdu_c));
+    // Far from the answer a rough direction is as good as an exact one; close to it the forcing
+    // term shrinks with the residual so the quadratic convergence is kept.
+    const double eta = std::clamp(res / std::max(ref, 1e-300), 1e-10, 1e-4);
+    const Eigen::VectorXd du_free = solveLinear(-(R_free + Kdu_c), eta);
     if (!du_free.allFinite()) return false;
     for (int d = 0; d < ndof; ++d)
       if (free_index[d] >= 0) du(d) = du_free(free_index[d]);
     ++result.newton_iterations;
     // Backtracking on the potential energy; a step that inverts an element has infinite energy.
+    t0 = std::chrono::steady_clock::now();
     const double slope = R.dot(du);
     double alpha = 1.0;
     bool accepted = false;
@@ -317,6 +640,7 @@ bool FemSolver::Impl::newton(double scale) {
         break;
       }
     }
+    result.line_search_seconds += secondsSince(t0);
     if (!accepted) return false;
   }
   return false;
@@ -325,15 +649,25 @@ bool FemSolver::Impl::newton(double scale) {
 const FemResult& FemSolver::solve() {
   Impl& m = *impl_;
   const auto start = std::chrono::steady_clock::now();
-  const int steps = std::max(1, m.scenario.load_steps);
+  const int steps = std::max(1, m.config.load_steps > 0 ? m.config.load_steps : m.scenario.load_steps);
   const double nominal = 1.0 / steps;
-  double done = 0.0, step = nominal;
+  double done = 0.0, step = nominal, done_before = -1.0;
   int halvings = 0;
   m.result = FemResult{};
+  Eigen::VectorXd u_before;
   while (done < 1.0 - 1e-12) {
     const double target = std::min(1.0, done + step);
     const Eigen::VectorXd saved = m.u;
+    // Secant predictor from the last two converged load levels: in a large rotation (the T-bar
+    // twist) the first Newton steps from the last state overshoot badly, from the extrapolated
+    // state they start near the answer.
+    if (done_before >= 0.0 && done > done_before) {
+      const Eigen::VectorXd predicted = m.u + (target - done) / (done - done_before) * (m.u - u_before);
+      if (std::isfinite(m.energy(predicted, target))) m.u = predicted;
+    }
     if (m.newton(target)) {
+      done_before = done;
+      u_before = saved;
       done = target;
       ++m.result.load_steps;
       step = std::min(nominal, 2.0 * step);
@@ -352,7 +686,13 @@ const FemResult& FemSolver::solve() {
   m.result.displacement.resize(m.mesh.nodes.size());
   for (std::size_t i = 0; i < m.mesh.nodes.size(); ++i) m.result.displacement[i] = m.u.segment<3>(3 * i);
   m.result.energy = m.energy(m.u, 1.0);
-  m.result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  m.result.seconds = secondsSince(start);
+  if (m.config.verbose)
+    std::cerr << "fem: " << m.result.seconds << " s: assembly " << m.result.assembly_seconds << ", factorisation "
+              << m.result.factorisation_seconds << " (" << m.result.factorisations << "), solves " << m.result.solve_seconds
+              << " (" << m.result.cg_iterations << " CG its), line search " << m.result.line_search_seconds << "; "
+              << m.result.newton_iterations << " Newton its, " << m.colours.size() << " colours, " << m.threads
+              << " threads\n";
   return m.result;
 }
 

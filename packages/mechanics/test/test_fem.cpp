@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
+#include <iostream>
 #include <cmath>
 
 #include "demnerf/core/error.hpp"
@@ -178,16 +180,69 @@ TEST(Fem, SimpleShearMatchesTheClosedForm) {
   EXPECT_NEAR(f.von_mises[0], dm::vonMises(sigma), 1e-6 * m->mu());
 }
 
-TEST(Fem, CoarseCookMembraneRegression) {
-  // 8 x 8 quadratic tetrahedra. Our discretisations converge to 13.77 mm, 3.9 % below the
-  // deal.II figure (see bench/mechanics_cook and notes/mechanics.md), so this is a regression
-  // guard on assembly, loads and material together, with a band that still catches real bugs.
-  dm::FemSolver solver(dm::cookMembraneMesh(8, 2), dm::cookMembraneScenario());
+// The deal.II gallery's Cook membrane as its code actually runs it: the z faces are free (its
+// z-face tag tests x instead of z), and a 1 mm slab under 1 N is far past lateral-torsional
+// buckling, so only the symmetric branch compares: half the thickness, u_z = 0 on the mid-plane,
+// half the force. See bench/mechanics_cook.cpp.
+struct CookHalf {
+  dm::TetMesh mesh;
+  core::Scenario scenario;
+};
+
+CookHalf cookSymmetricHalf(int cells, int order) {
+  CookHalf c;
+  c.scenario = dm::cookMembraneScenario();
+  for (auto& f : c.scenario.fixtures)
+    if (f.name == "plane_strain") {
+      f.region.center.z() = 0.0;
+      f.region.size.z() = 1e-6;
+    }
+  c.scenario.loads[0].force *= 0.5;
+  c.mesh = dm::structuredMesh(Eigen::Vector3i(cells, cells, 1), order, [](const Vector3d& p) -> Vector3d {
+    const double x = 0.048 * p.x(), lower = 44.0 / 48.0 * x, upper = 0.044 + 16.0 / 48.0 * x;
+    return Vector3d(x, lower + p.y() * (upper - lower), 0.5e-3 * p.z());
+  });
+  return c;
+}
+
+TEST(Fem, CoarseCookMembraneMatchesDealII) {
+  // 8 x 8 quadratic tetrahedra (the Q2 8x8 node set): 14.26 mm, -0.5 % from the converged 14.33
+  // (16 x 16 gives -0.14 %, bench/mechanics_cook). A 1 % band catches assembly, load, material
+  // and boundary-condition errors; plane strain (u_z = 0 on the z faces) gives 13.71 here.
+  CookHalf c = cookSymmetricHalf(8, 2);
+  dm::FemSolver solver(c.mesh, c.scenario);
   const dm::FemResult& r = solver.solve();
-  const double tip = solver.interpolate({dm::cookMembraneTip()}).displacement[0].y();
-  std::cout << "Cook 8x8 TET10: tip uy " << tip * 1e3 << " mm, " << r.newton_iterations << " Newton iterations, "
-            << r.seconds << " s\n";
-  EXPECT_NEAR(tip, dm::kCookTipReference, 0.05 * dm::kCookTipReference);
+  const double tip = solver.interpolate({Vector3d(0.048, 0.060, 0.5e-3)}).displacement[0].y();
+  std::cout << "Cook 8x8 TET10 (symmetric half of the free slab): tip uy " << tip * 1e3 << " mm, "
+            << r.newton_iterations << " Newton iterations, " << r.seconds << " s\n";
+  EXPECT_NEAR(tip, dm::kCookTipReference, 0.01 * dm::kCookTipReference);
+}
+
+TEST(Fem, ThreadsOrderingAndFactorisationReuseDoNotChangeTheAnswer) {
+  // Coloured assembly sums every entry in the same order for any thread count: bitwise equal.
+  // AMD vs nested dissection and reused factorisations (preconditioned CG) differ only within
+  // the Newton tolerance.
+  CookHalf c = cookSymmetricHalf(4, 2);
+  auto run = [&](int threads, dm::FemConfig::Ordering ordering, int reuse) {
+    dm::FemConfig config;
+    config.threads = threads;
+    config.ordering = ordering;
+    config.reuse_factorisation_iterations = reuse;
+    dm::FemSolver solver(c.mesh, c.scenario, config);
+    return solver.solve().displacement;
+  };
+  const auto one = run(1, dm::FemConfig::Ordering::kAmd, 0);
+  const auto three = run(3, dm::FemConfig::Ordering::kAmd, 0);
+  const auto nd = run(2, dm::FemConfig::Ordering::kNestedDissection, 30);
+  ASSERT_EQ(one.size(), three.size());
+  double max_u = 0, diff_nd = 0;
+  for (std::size_t i = 0; i < one.size(); ++i) {
+    EXPECT_EQ(one[i], three[i]) << "node " << i;
+    max_u = std::max(max_u, one[i].norm());
+    diff_nd = std::max(diff_nd, (one[i] - nd[i]).norm());
+  }
+  EXPECT_GT(max_u, 1e-3);
+  EXPECT_LT(diff_nd, 1e-6 * max_u);
 }
 
 TEST(Fem, BadInputIsReported) {

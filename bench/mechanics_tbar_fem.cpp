@@ -1,0 +1,190 @@
+// T-bar twist with the FEM baseline: mesh convergence of structured TET4 / TET10 voxel meshes of
+// the exact T-bar, and the converged reference that bench/mechanics_dem (case=tbar) compares to.
+// Usage: mechanics_tbar_fem key=value ...
+//   mode=converge (default): orders=2 (1, 2 or 12) hs=0.02,0.015,0.01,0.0075 particle_h=0.0075
+//        ref_out=PATH (the finest level at the particles, a result PLY; default: none written)
+//        scenario=PATH threads=N verbose=0|1 patch_inner=X (load patches from |x| = X, a study
+//        variant whose patch edge is a grid line of every level)
+//   mode=speed: the CLI's `demnerf simulate --solver fem --order 1` on the 6 mm grid particles
+//        (voxels from the particles), reps=3 order=1 cell=0.006 [particles=P.ply] [ordering=amd]
+//        [reuse=CG_ITS] [steps=N] -> median seconds.
+// Every level is interpolated to the same grid particles (bench/mechanics_bench_common.hpp), and
+// the table gives the relative L2 difference of each level to the finest one there.
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "demnerf/core/ply.hpp"
+#include "demnerf/core/scenario.hpp"
+#include "demnerf/mechanics/box_particles.hpp"
+#include "demnerf/mechanics/fem_solver.hpp"
+#include "demnerf/mechanics/voxel_mesh.hpp"
+#include "mechanics_bench_common.hpp"
+
+namespace dm = demnerf::mechanics;
+namespace core = demnerf::core;
+using Eigen::Vector3d;
+using demnerf::bench::median;
+using demnerf::bench::since;
+using demnerf::bench::tbarParticles;
+
+namespace {
+
+std::vector<double> parseList(const std::string& text) {
+  std::vector<double> out;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) out.push_back(std::atof(item.c_str()));
+  return out;
+}
+
+// The closed surface of the T-bar (leg and bar as two touching boxes: the ray-parity voxeliser
+// only looks at cell centres, which never lie on the shared face for these cell sizes).
+core::TriangleMesh tbarSurface() {
+  core::TriangleMesh surface = dm::boxSurface(Vector3d(-0.03, -0.03, 0.0), Vector3d(0.03, 0.03, 0.24));
+  const core::TriangleMesh bar = dm::boxSurface(Vector3d(-0.15, -0.03, 0.24), Vector3d(0.15, 0.03, 0.30));
+  const int offset = static_cast<int>(surface.vertices.size());
+  for (const auto& f : bar.faces) surface.faces.push_back({f[0] + offset, f[1] + offset, f[2] + offset});
+  surface.vertices.insert(surface.vertices.end(), bar.vertices.begin(), bar.vertices.end());
+  return surface;
+}
+
+struct Level {
+  int order;
+  double h;
+  std::size_t elements, dofs;
+  double seconds, energy, max_u;
+  int newton;
+  std::vector<Vector3d> u;  // at the particles
+  std::vector<double> von_mises;
+  Vector3d patch[2];
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);
+  std::map<std::string, std::string> a;
+  for (int i = 1; i < argc; ++i) {
+    const std::string s = argv[i];
+    const auto eq = s.find('=');
+    if (eq != std::string::npos) a[s.substr(0, eq)] = s.substr(eq + 1);
+  }
+  auto str = [&](const char* k, const std::string& d) { return a.count(k) ? a[k] : d; };
+  auto num = [&](const char* k, double d) { return a.count(k) ? std::atof(a[k].c_str()) : d; };
+  core::Scenario scenario =
+      core::loadScenario(str("scenario", std::string(DEMNERF_ROOT) + "/config/scenarios/tbar_twist.yaml"));
+  if (a.count("patch_inner")) {
+    // Study variant: load patches from |x| = patch_inner to the bar ends. The scenario's |x| = 0.10
+    // is a grid line only for h = 0.01, 0.005; 0.09 is one for 0.02, 0.015, 0.01, 0.0075, 0.005, so
+    // all levels then solve the same load.
+    const double inner = num("patch_inner", 0.10);
+    for (core::Load& load : scenario.loads) {
+      const double sign = load.region.center.x() > 0 ? 1.0 : -1.0;
+      load.region.center.x() = sign * 0.5 * (inner + 0.15);
+      load.region.size.x() = 0.15 - inner;
+    }
+  }
+  dm::FemConfig fem_config;
+  fem_config.threads = static_cast<int>(num("threads", 0));
+  fem_config.verbose = num("verbose", 0) != 0;
+
+  if (str("mode", "converge") == "speed") {
+    // What `demnerf simulate --particles P --scenario tbar_twist.yaml --solver fem --order 1` does
+    // (mechanics::simulate's FEM branch, inlined so the timing is of exactly these steps).
+    const core::ParticleCloud cloud =
+        a.count("particles") ? core::readParticles(a["particles"]) : tbarParticles(num("cell", 0.006));
+    if (a.count("ordering") && a["ordering"] == "amd") fem_config.ordering = dm::FemConfig::Ordering::kAmd;
+    if (a.count("reuse")) fem_config.reuse_factorisation_iterations = static_cast<int>(num("reuse", 30));
+    if (a.count("steps")) fem_config.load_steps = static_cast<int>(num("steps", 0));
+    dm::VoxelMeshConfig voxel;
+    voxel.order = static_cast<int>(num("order", 1));
+    std::vector<double> seconds;
+    for (int rep = 0; rep < static_cast<int>(num("reps", 3)); ++rep) {
+      // The FEM branch of mechanics::simulate (particle voxels, solve, interpolate to the particles).
+      const auto start = std::chrono::steady_clock::now();
+      dm::FemSolver fem(dm::voxelMeshFromParticles(cloud, voxel), scenario, fem_config);
+      const dm::FemResult& r = fem.solve();
+      const dm::PointField at = fem.interpolate(cloud.positions);
+      seconds.push_back(since(start));
+      double max_u = 0;
+      for (const auto& u : at.displacement) max_u = std::max(max_u, u.norm());
+      std::printf("run %d: %zu particles, %zu nodes, %zu elements, %.2f s (Newton its %d, factorisations %d, CG its %d), energy %.6g J, max |u| %.3f mm\n",
+                  rep + 1, cloud.size(), fem.mesh().nodes.size(), fem.mesh().elements.size(), seconds.back(),
+                  r.newton_iterations, r.factorisations, r.cg_iterations, r.energy, 1e3 * max_u);
+    }
+    std::printf("median %.2f s over %zu runs\n", median(seconds), seconds.size());
+    return 0;
+  }
+
+  const core::ParticleCloud cloud = tbarParticles(num("particle_h", 0.0075));
+  const std::vector<Vector3d> patches = {Vector3d(0.125, -0.03, 0.27), Vector3d(-0.125, 0.03, 0.27)};
+  const core::TriangleMesh surface = tbarSurface();
+  std::vector<int> orders;
+  const std::string order_text = str("orders", "2");
+  for (char c : order_text)
+    if (c == '1' || c == '2') orders.push_back(c - '0');
+  const std::vector<double> hs = parseList(str("hs", "0.02,0.015,0.01,0.0075"));
+  std::vector<Level> levels;
+  for (int order : orders)
+    for (double h : hs) {
+      dm::VoxelMeshConfig voxel;
+      voxel.cell = h;
+      voxel.order = order;
+      const auto start = std::chrono::steady_clock::now();
+      dm::FemSolver fem(dm::voxelMeshFromSurface(surface, voxel), scenario, fem_config);
+      const dm::FemResult& r = fem.solve();
+      Level level;
+      level.seconds = since(start);
+      level.order = order;
+      level.h = h;
+      level.elements = fem.mesh().elements.size();
+      level.dofs = 3 * fem.mesh().nodes.size();
+      level.energy = r.energy;
+      level.newton = r.newton_iterations;
+      level.max_u = 0;
+      for (const auto& u : r.displacement) level.max_u = std::max(level.max_u, u.norm());
+      const dm::PointField at = fem.interpolate(cloud.positions);
+      level.u = at.displacement;
+      level.von_mises = at.von_mises;
+      const auto p = fem.interpolate(patches).displacement;
+      level.patch[0] = p[0];
+      level.patch[1] = p[1];
+      std::fprintf(stderr, "TET%d h=%g: %zu elements, %zu dofs, %.1f s, %d Newton its\n", order == 1 ? 4 : 10, h,
+                   level.elements, level.dofs, level.seconds, level.newton);
+      levels.push_back(std::move(level));
+    }
+  if (levels.empty()) return 0;
+  // The finest level: the most dofs.
+  const Level& finest = *std::max_element(levels.begin(), levels.end(),
+                                          [](const Level& x, const Level& y) { return x.dofs < y.dofs; });
+  double ref_norm = 0;
+  for (const auto& u : finest.u) ref_norm += u.squaredNorm();
+  std::printf("T-bar twist, %zu grid particles (h = %g m); rel L2 = ||u - u_finest|| / ||u_finest|| at the particles\n",
+              cloud.size(), num("particle_h", 0.0075));
+  std::printf("| element | h (m) | elements | dofs | seconds | Newton its | max |u| (mm) | |u| patch +x (mm) | |u| patch -x (mm) | energy (J) | rel L2 vs finest |\n");
+  std::printf("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
+  for (const Level& l : levels) {
+    double e = 0;
+    for (std::size_t i = 0; i < l.u.size(); ++i) e += (l.u[i] - finest.u[i]).squaredNorm();
+    std::printf("| TET%d | %g | %zu | %zu | %.1f | %d | %.3f | %.3f | %.3f | %.6g | %.2e |\n", l.order == 1 ? 4 : 10, l.h,
+                l.elements, l.dofs, l.seconds, l.newton, 1e3 * l.max_u, 1e3 * l.patch[0].norm(), 1e3 * l.patch[1].norm(),
+                l.energy, std::sqrt(e / ref_norm));
+  }
+  if (a.count("ref_out")) {
+    core::ResultField result;
+    result.positions = cloud.positions;
+    result.displacements = finest.u;
+    result.von_mises = finest.von_mises;
+    core::writeResult(a["ref_out"], result);
+    std::printf("wrote the TET%d h = %g result at the %zu particles to %s\n", finest.order == 1 ? 4 : 10, finest.h,
+                cloud.size(), a["ref_out"].c_str());
+  }
+  return 0;
+}
