@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "demnerf/core/ply.hpp"
 #include "demnerf/core/scenario.hpp"
 #include "demnerf/mechanics/box_particles.hpp"
 #include "demnerf/mechanics/dem_solver.hpp"
@@ -84,7 +85,9 @@ void plot(const std::vector<Variant>& variants, const std::string& path, const s
       cv::line(img, px(v.curve[i - 1].seconds, v.curve[i - 1].error), px(v.curve[i].seconds, v.curve[i].error),
                v.colour, 2);
     for (const auto& s : v.curve) cv::circle(img, px(s.seconds, s.error), 2, v.colour, -1);
-    cv::putText(img, v.name, cv::Point(w - m - 220, m + 18 * ++legend), cv::FONT_HERSHEY_SIMPLEX, 0.45, v.colour, 1);
+    // Legend in the bottom-right corner: small errors late in training, where no curve has been.
+    cv::putText(img, v.name, cv::Point(w - m - 200, h - m - 10 - 18 * static_cast<int>(variants.size() - 1 - legend++)),
+                cv::FONT_HERSHEY_SIMPLEX, 0.45, v.colour, 1);
   }
   cv::putText(img, title, cv::Point(m, 25), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0));
   cv::imwrite(path, img);
@@ -119,10 +122,19 @@ int main(int argc, char** argv) {
     scenario = core::loadScenario(std::string(DEMNERF_ROOT) + "/config/scenarios/tbar_twist.yaml");
     cloud = tbarParticles(0.0075);
     const std::string path = a.count("reference") ? a["reference"] : "/tmp/dem_tbar_fem_0.007500_0.010000.bin";
-    std::ifstream in(path, std::ios::binary);
-    ref.resize(cloud.size());
-    in.read(reinterpret_cast<char*>(ref.data()), static_cast<std::streamsize>(ref.size() * sizeof(Vector3d)));
-    if (!in) {
+    bool ok = false;
+    if (path.size() > 4 && path.substr(path.size() - 4) == ".ply") {
+      // A result PLY on the same particles (mechanics_tbar_fem ref_out=...).
+      const core::ResultField r = core::readResult(path);
+      ok = r.size() == cloud.size();
+      ref = r.displacements;
+    } else {
+      std::ifstream in(path, std::ios::binary);
+      ref.resize(cloud.size());
+      in.read(reinterpret_cast<char*>(ref.data()), static_cast<std::streamsize>(ref.size() * sizeof(Vector3d)));
+      ok = static_cast<bool>(in);
+    }
+    if (!ok) {
       std::fprintf(stderr, "no T-bar FEM reference at %s: run mechanics_dem case=tbar (it writes one) or pass reference=\n",
                    path.c_str());
       return 1;

@@ -1,5 +1,8 @@
 // `demnerf simulate`: quasi-static deformation of a particle cloud under a scenario, by the Deep
-// Energy Method or the FEM baseline (packages/mechanics). Writes one result row per particle.
+// Energy Method, the FEM baseline or the strong-form PINN baseline (packages/mechanics). Writes
+// one result row per particle.
+
+#include <cstdlib>
 
 #include "command.hpp"
 #include "commands.hpp"
@@ -12,13 +15,11 @@ namespace {
 
 Figures runSimulate(const Arguments& arguments) {
   arguments.rejectUnknown({"particles", "scenario", "solver", "mesh", "out", "cell", "order", "iterations", "width",
-                           "depth", "boundary", "threads", "json", "quiet"});
+                           "depth", "boundary", "threads", "json", "quiet", "save-model", "load-range", "newton"});
   const std::string solver_name = arguments.text("solver", "dem");
   if (solver_name != "dem" && solver_name != "fem" && solver_name != "pinn")
     throw UsageError("option --solver expects dem, fem or pinn, got '" + solver_name + "'");
   const mechanics::SolverChoice solver = mechanics::parseSolverChoice(solver_name);
-  if (solver == mechanics::SolverChoice::kPinn)
-    throw NotBuiltYet("the PINN solver is not built yet in this version of dem_nerf: use --solver dem or fem");
   const std::string out_path = arguments.text("out");
   const core::ParticleCloud cloud = core::readParticles(arguments.text("particles"));
   const core::Scenario scenario = core::loadScenario(arguments.text("scenario"));
@@ -34,6 +35,30 @@ Figures runSimulate(const Arguments& arguments) {
   options.dem.width = arguments.integer("width", options.dem.width);
   options.dem.depth = arguments.integer("depth", options.dem.depth);
   options.dem.threads = arguments.integer("threads", 0);
+  // The PINN takes the same network and iteration flags (its own defaults when absent).
+  options.pinn.adam_iterations = arguments.integer("iterations", options.pinn.adam_iterations);
+  options.pinn.width = arguments.integer("width", options.pinn.width);
+  options.pinn.depth = arguments.integer("depth", options.pinn.depth);
+  options.pinn.threads = options.dem.threads;
+  // DEM extras: a saved network for `demnerf predict`, the parametric load range (instant answers
+  // for any load fraction in it) and the output-layer Newton solve.
+  if (arguments.has("save-model")) {
+    if (solver != mechanics::SolverChoice::kDem) throw UsageError("option --save-model needs --solver dem");
+    options.dem_model_path = arguments.text("save-model");
+  }
+  if (arguments.has("load-range")) {
+    const std::string range = arguments.text("load-range");
+    const auto comma = range.find(',');
+    char* end = nullptr;
+    const double lo = std::strtod(range.c_str(), &end);
+    const double hi = comma == std::string::npos ? 0.0 : std::strtod(range.c_str() + comma + 1, nullptr);
+    if (comma == std::string::npos || end != range.c_str() + comma || !(lo < hi))
+      throw UsageError("option --load-range expects MIN,MAX load fractions with MIN < MAX (e.g. 0,1.5), got '" + range + "'");
+    options.dem.parametric = true;
+    options.dem.load_range_min = lo;
+    options.dem.load_range_max = hi;
+  }
+  if (arguments.has("newton")) options.dem.output_newton = true;
   const std::string boundary = arguments.text("boundary", "exact");
   if (boundary == "penalty") options.dem.boundary = mechanics::DemConfig::Boundary::kPenalty;
   else if (boundary != "exact") throw UsageError("option --boundary expects exact or penalty, got '" + boundary + "'");
@@ -46,6 +71,7 @@ Figures runSimulate(const Arguments& arguments) {
                   {"particles", cloud.size()},
                   {"solver", solver_name},
                   {"out", out_path}};
+  if (solver == mechanics::SolverChoice::kPinn) figures["loss"] = outcome.loss;
   if (solver == mechanics::SolverChoice::kFem) {
     figures["mesh_nodes"] = outcome.mesh_nodes;
     figures["mesh_elements"] = outcome.mesh_elements;
@@ -59,7 +85,7 @@ const Command kSimulateCommand = {
     "simulate", "quasi-static deformation of a particle cloud",
     "--particles P.ply --scenario S.yaml --solver dem|fem|pinn [--mesh M.ply] --out R.ply "
     "[--cell H] [--order 1|2] [--iterations N] [--width W] [--depth D] [--boundary exact|penalty] "
-    "[--threads T] [--json]",
+    "[--threads T] [--save-model M.dem] [--load-range MIN,MAX] [--newton] [--json]",
     runSimulate};
 
 }  // namespace demnerf::cli

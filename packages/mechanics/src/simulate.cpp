@@ -6,6 +6,7 @@
 
 #include "demnerf/core/error.hpp"
 #include "demnerf/mechanics/boundary_conditions.hpp"
+#include "demnerf/mechanics/dem_model_io.hpp"
 
 namespace demnerf::mechanics {
 
@@ -36,6 +37,7 @@ SimulationOutcome simulate(const core::ParticleCloud& cloud, const core::Scenari
       DemSolver dem(cloud, scenario, options.dem);
       out.energy = dem.solve().energy;
       out.field = dem.result();
+      if (!options.dem_model_path.empty()) saveDemModel(dem, options.dem_model_path);
       break;
     }
     case SolverChoice::kFem: {
@@ -63,8 +65,14 @@ SimulationOutcome simulate(const core::ParticleCloud& cloud, const core::Scenari
       out.field.von_mises = at.von_mises;
       break;
     }
-    case SolverChoice::kPinn:
-      throw core::Error("the PINN solver is not built yet in this version of dem_nerf: use --solver dem or fem");
+    case SolverChoice::kPinn: {
+      PinnSolver pinn(cloud, scenario, options.pinn);
+      const PinnReport report = pinn.solve();
+      out.energy = report.energy;  // of the trained field: the PINN minimises residuals, not energy
+      out.loss = report.loss;
+      out.field = pinn.result();
+      break;
+    }
   }
   for (const auto& u : out.field.displacements) out.max_displacement = std::max(out.max_displacement, u.norm());
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

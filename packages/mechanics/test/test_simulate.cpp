@@ -129,9 +129,19 @@ TEST(Simulate, DemGivesOneRowPerParticleInOrder) {
   EXPECT_TRUE(std::isfinite(out.energy));
 }
 
-TEST(Simulate, PinnIsNotBuiltAndBadInputFailsFirst) {
+TEST(Simulate, PinnRunsAndBadInputFailsFirst) {
   const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(2, 2, 2));
-  EXPECT_THROW(dm::simulate(cloud, uniaxial(1e5, 1.0), dm::SolverChoice::kPinn), core::Error);
+  dm::SimulateOptions options;
+  options.pinn.width = 8;
+  options.pinn.depth = 1;
+  options.pinn.adam_iterations = 20;
+  options.pinn.lbfgs_iterations = 5;
+  options.pinn.threads = 1;
+  const dm::SimulationOutcome out = dm::simulate(cloud, uniaxial(1e5, 1.0), dm::SolverChoice::kPinn, options);
+  ASSERT_EQ(out.field.size(), cloud.size());
+  EXPECT_GT(out.max_displacement, 0.0);
+  options.pinn.weight_residual = std::nan("");
+  EXPECT_THROW(dm::simulate(cloud, uniaxial(1e5, 1.0), dm::SolverChoice::kPinn, options), core::Error);
   EXPECT_THROW(dm::parseSolverChoice("xfem"), core::Error);
   core::Scenario s = uniaxial(1e5, 1.0);
   s.fixtures.clear();

@@ -9,6 +9,7 @@
 #include "demnerf/core/scenario.hpp"
 #include "demnerf/mechanics/dem_solver.hpp"
 #include "demnerf/mechanics/fem_solver.hpp"
+#include "demnerf/mechanics/pinn_solver.hpp"
 #include "demnerf/mechanics/voxel_mesh.hpp"
 
 namespace demnerf::mechanics {
@@ -21,7 +22,10 @@ const char* solverName(SolverChoice solver);
 
 struct SimulateOptions {
   DemConfig dem;
+  /// DEM: save the trained network here (`demnerf predict` and dem_node read it); empty: don't.
+  std::string dem_model_path;
   FemConfig fem;
+  PinnConfig pinn;
   /// FEM mesh: hexes of this size (0: the cube root of the median particle volume), split into
   /// tetrahedra of voxel.order.
   VoxelMeshConfig voxel;
@@ -33,13 +37,14 @@ struct SimulationOutcome {
   core::ResultField field;
   double seconds = 0.0;           ///< wall time of meshing + solving + evaluation at the particles
   double energy = 0.0;            ///< total potential energy at full load (J)
+  double loss = 0.0;              ///< PINN only: the weighted residual loss at full load
   double max_displacement = 0.0;  ///< largest |u| over the particles (m)
   int mesh_nodes = 0;             ///< FEM only
   int mesh_elements = 0;          ///< FEM only
 };
 
-/// Solves the scenario on the particles. Throws core::Error for bad input (before any work), a
-/// failed solve, or a solver that is not built (PINN).
+/// Solves the scenario on the particles. Throws core::Error for bad input (before any work) or a
+/// failed solve.
 SimulationOutcome simulate(const core::ParticleCloud& cloud, const core::Scenario& scenario, SolverChoice solver,
                            const SimulateOptions& options = {});
 
