@@ -1,11 +1,14 @@
 #include "nodes/dem/dem_node.hpp"
 
+#include <cv_bridge/cv_bridge.h>
 #include <dem_nerf/TrainingStatus.h>
+#include <sensor_msgs/image_encodings.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <visualization_msgs/MarkerArray.h>
 
 #include <sstream>
 
+#include "conversions/camera_info_conversions.hpp"
 #include "conversions/cloud_conversions.hpp"
 #include "conversions/region_conversions.hpp"
 #include "demnerf/core/error.hpp"
@@ -90,7 +93,9 @@ DemNode::DemNode(ros::NodeHandle node, ros::NodeHandle private_node, const DemNo
   displaced_publisher_ = private_node.advertise<sensor_msgs::PointCloud2>("displaced", 1, true);
   markers_publisher_ = private_node.advertise<visualization_msgs::MarkerArray>("markers", 1, true);
   image_transport::ImageTransport private_transport(private_node);
-  rendered_publisher_ = private_transport.advertise("rendered", 1);
+  rendered_publisher_ = private_transport.advertise(
+      "rendered", 1, [this](const image_transport::SingleSubscriberPublisher& peer) { onRenderSubscriber(peer); });
+  render_worker_ = std::make_unique<LatestWinsWorker<RenderJob>>([this](const RenderJob& job) { runRender(job); });
   worker_ = std::make_unique<LatestWinsWorker<SolveJob>>([this](const SolveJob& job) { runSolve(job); });
 
   if (config_.scenario.empty()) {
@@ -109,6 +114,8 @@ DemNode::DemNode(ros::NodeHandle node, ros::NodeHandle private_node, const DemNo
   wrench_subscriber_ = private_node.subscribe("wrench", 10, &DemNode::onWrench, this);
   load_case_subscriber_ = private_node.subscribe("load_case", 1, &DemNode::onLoadCase, this);
   model_subscriber_ = node.subscribe("model", 1, &DemNode::onModel, this);
+  render_camera_info_subscriber_ =
+      private_node.subscribe("render_camera_info", 1, &DemNode::onRenderCameraInfo, this);
   status_timer_ = private_node.createTimer(ros::Duration(1.0), &DemNode::publishPeriodicStatus, this);
   ROS_INFO("dem_node: solver %s, scenario '%s'", demnerf::mechanics::solverName(solver_), config_.scenario.c_str());
 }
@@ -119,6 +126,7 @@ void DemNode::onParticles(const sensor_msgs::PointCloud2ConstPtr& message) {
     {
       std::lock_guard<std::mutex> lock(mutex_);
       particles_ = std::move(cloud);
+      ++particles_generation_;
     }
     requestSolve("new particles");
   } catch (const Error& error) {
@@ -185,7 +193,96 @@ void DemNode::onLoadCase(const dem_nerf::LoadCaseConstPtr& message) {
   }
 }
 
-void DemNode::onModel(const dem_nerf::ModelInfoConstPtr&) {}
+void DemNode::onModel(const dem_nerf::ModelInfoConstPtr& message) {
+  std::optional<demnerf::core::ResultField> result;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    model_info_path_ = message->model_path;
+    model_info_frame_ = message->header.frame_id;
+    result = last_result_;
+  }
+  if (result) requestRender(*result);  // a newer model changes how the current result looks
+}
+
+void DemNode::onRenderCameraInfo(const sensor_msgs::CameraInfoConstPtr& message) {
+  try {
+    const demnerf::core::PinholeCamera camera = fromCameraInfo(*message);
+    std::lock_guard<std::mutex> lock(mutex_);
+    render_camera_ = camera;
+  } catch (const Error& error) {
+    reportError(std::string("render camera_info rejected: ") + error.what());
+  }
+}
+
+void DemNode::onRenderSubscriber(const image_transport::SingleSubscriberPublisher&) {
+  std::optional<demnerf::core::ResultField> result;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    result = last_result_;
+  }
+  if (result) requestRender(*result);
+}
+
+void DemNode::requestRender(const demnerf::core::ResultField& result) {
+  if (config_.render_frame.empty()) return;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    last_result_ = result;
+  }
+  // Compute only when someone listens (image_pipeline style): a render costs about a second.
+  if (rendered_publisher_.getNumSubscribers() == 0) return;
+  RenderJob job;
+  job.result = result;
+  job.stamp = ros::Time::now();
+  render_worker_->submit(std::move(job));
+}
+
+void DemNode::runRender(const RenderJob& job) {
+  if (rendered_publisher_.getNumSubscribers() == 0) return;  // the listener left while this waited
+  try {
+    std::string model_path, model_frame;
+    std::optional<demnerf::core::PinholeCamera> camera;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      model_path = model_info_path_.empty() ? config_.model_path : model_info_path_;
+      model_frame = model_info_frame_;
+      camera = render_camera_;
+    }
+    if (model_path.empty()) {
+      throw Error("no NeRF model to render with: no ModelInfo on 'model' yet and no ~model_path set");
+    }
+    if (!model_frame.empty() && model_frame != config_.particles_frame) {
+      throw Error("the NeRF model is in frame '" + model_frame + "' but ~particles_frame is '" +
+                  config_.particles_frame + "'");
+    }
+    view_.useModel(model_path);
+    if (!camera) camera = cameraFromFieldOfView(config_.render_width, config_.render_height, config_.render_fov);
+    std::string why;
+    if (!tf_buffer_.canTransform(config_.particles_frame, config_.render_frame, ros::Time(0),
+                                 ros::Duration(config_.tf_timeout), &why)) {
+      throw Error("no tf from '" + config_.particles_frame + "' to ~render_frame '" + config_.render_frame +
+                  "': " + why);
+    }
+    const Eigen::Isometry3d world_from_camera = tf2::transformToEigen(
+        tf_buffer_.lookupTransform(config_.particles_frame, config_.render_frame, ros::Time(0)));
+    const ros::WallTime start = ros::WallTime::now();
+    const cv::Mat rgba = view_.render(job.result, *camera, world_from_camera);
+    const double seconds = (ros::WallTime::now() - start).toSec();
+    std_msgs::Header header;
+    header.stamp = job.stamp;
+    header.frame_id = config_.render_frame;
+    rendered_publisher_.publish(cv_bridge::CvImage(header, sensor_msgs::image_encodings::RGBA8, rgba).toImageMsg());
+    std::ostringstream text;
+    text.precision(3);
+    text << camera->width << "x" << camera->height << " in " << seconds << " s";
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++renders_;
+    last_render_ = text.str();
+  } catch (const std::exception& error) {
+    // Bad model files, tf errors and torch errors alike: report, keep the node and the last image.
+    reportError(std::string("~rendered not updated: ") + error.what());
+  }
+}
 
 demnerf::core::Scenario DemNode::scenarioFor(const dem_nerf::LoadCase& load_case) {
   std::lock_guard<std::mutex> lock(mutex_);
@@ -215,6 +312,7 @@ void DemNode::requestSolve(const std::string& cause) {
     std::lock_guard<std::mutex> lock(mutex_);
     if (!particles_ || !scenario_loaded_ || scenario_.loads.empty()) return;
     job.cloud = *particles_;
+    job.cloud_generation = particles_generation_;
     job.scenario = scenario_;
     stage_ = "solving";
   }
@@ -222,17 +320,35 @@ void DemNode::requestSolve(const std::string& cause) {
   worker_->submit(std::move(job));
 }
 
+demnerf::mechanics::SimulationOutcome DemNode::solveWithSession(const SolveJob& job, std::string& how) {
+  if (!dem_session_) dem_session_ = std::make_unique<demnerf::mechanics::DemSession>(config_.simulateOptions().dem);
+  if (session_generation_ != job.cloud_generation) {
+    dem_session_->setParticles(job.cloud);
+    session_generation_ = job.cloud_generation;
+  }
+  const demnerf::mechanics::DemSessionAnswer answer = dem_session_->answer(job.scenario);
+  how = answer.mode == "instant" ? "instant (parametric, load x" + std::to_string(answer.load_scale) + ")"
+                                 : answer.mode + " DEM";
+  return answer.outcome;
+}
+
 void DemNode::runSolve(const SolveJob& job) {
   try {
+    // The DEM lives across solves (warm starts; with ~parametric, scaled loads need no training);
+    // the baselines solve from scratch.
+    std::string how;
     const demnerf::mechanics::SimulationOutcome outcome =
-        demnerf::mechanics::simulate(job.cloud, job.scenario, solver_);
+        solver_ == demnerf::mechanics::SolverChoice::kDem
+            ? solveWithSession(job, how)
+            : demnerf::mechanics::simulate(job.cloud, job.scenario, solver_, config_.simulateOptions());
     publishResult(outcome, job.scenario);
+    const std::string figures = describe(outcome) + (how.empty() ? "" : ", " + how);
     {
       std::lock_guard<std::mutex> lock(mutex_);
       stage_ = "solved";
-      last_figures_ = describe(outcome);
+      last_figures_ = figures;
     }
-    publishStatus("solved", job.cause + ": " + describe(outcome));
+    publishStatus("solved", job.cause + ": " + figures);
   } catch (const Error& error) {
     // The last good solution stays published; the error says why this one failed.
     {
@@ -260,6 +376,7 @@ void DemNode::publishResult(const demnerf::mechanics::SimulationOutcome& outcome
     markers.markers.push_back(forceArrow(load, config_.particles_frame, id++, largest > 0 ? 0.05 / largest : 0.0));
   }
   markers_publisher_.publish(markers);
+  requestRender(outcome.field);
 }
 
 bool DemNode::solve(dem_nerf::Solve::Request& request, dem_nerf::Solve::Response& response) {
@@ -270,7 +387,8 @@ bool DemNode::solve(dem_nerf::Solve::Request& request, dem_nerf::Solve::Response
       std::lock_guard<std::mutex> lock(mutex_);
       cloud = *particles_;
     }
-    const demnerf::mechanics::SimulationOutcome outcome = demnerf::mechanics::simulate(cloud, scenario, solver_);
+    const demnerf::mechanics::SimulationOutcome outcome =
+        demnerf::mechanics::simulate(cloud, scenario, solver_, config_.simulateOptions());
     std_msgs::Header header = request.load_case.header;
     header.frame_id = config_.particles_frame;
     header.stamp = ros::Time::now();
@@ -313,6 +431,9 @@ void DemNode::publishPeriodicStatus(const ros::TimerEvent&) {
     stage = stage_;
     message = (particles_ ? std::to_string(particles_->size()) + " particles" : std::string("no particles yet")) +
               (last_figures_.empty() ? "" : "; last solve: " + last_figures_) +
+              (config_.render_frame.empty() ? ""
+                                            : "; " + std::to_string(renders_) + " renders" +
+                                                  (last_render_.empty() ? "" : " (last " + last_render_ + ")")) +
               (last_error_.empty() ? "" : "; last error: " + last_error_);
   }
   publishStatus(stage, message);

@@ -1,7 +1,8 @@
 #pragma once
 // dem_node: takes the particle cloud, fixtures and loads, solves the quasi-static deformation
-// in a worker thread and publishes the displaced cloud. All algorithms live in packages/; this
-// class only wires them to ROS.
+// in a worker thread and publishes the displaced cloud; while someone subscribes to ~rendered
+// and ~render_frame is set, a second worker renders each result through the NeRF. All
+// algorithms live in packages/; this class only wires them to ROS.
 
 #include <dem_nerf/FixtureArray.h>
 #include <dem_nerf/LoadCase.h>
@@ -10,10 +11,12 @@
 #include <geometry_msgs/WrenchStamped.h>
 #include <image_transport/image_transport.h>
 #include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 
+#include <cstdint>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -21,7 +24,9 @@
 
 #include "demnerf/core/ply.hpp"
 #include "demnerf/core/scenario.hpp"
+#include "demnerf/mechanics/dem_session.hpp"
 #include "demnerf/mechanics/simulate.hpp"
+#include "nodes/dem/deformed_view.hpp"
 #include "nodes/dem/dem_node_config.hpp"
 #include "workers/latest_wins_worker.hpp"
 
@@ -35,8 +40,14 @@ class DemNode {
   /// What one solve needs; a newer one replaces a waiting one (bursts coalesce).
   struct SolveJob {
     demnerf::core::ParticleCloud cloud;
+    std::uint64_t cloud_generation = 0;  ///< which particle message the cloud came from
     demnerf::core::Scenario scenario;
     std::string cause;  ///< "wrench", "load case", ... for the status message
+  };
+  /// One image for ~rendered: a newer result replaces one not rendered yet.
+  struct RenderJob {
+    demnerf::core::ResultField result;
+    ros::Time stamp;
   };
 
   void onParticles(const sensor_msgs::PointCloud2ConstPtr& message);
@@ -44,6 +55,9 @@ class DemNode {
   void onWrench(const geometry_msgs::WrenchStampedConstPtr& message);
   void onLoadCase(const dem_nerf::LoadCaseConstPtr& message);
   void onModel(const dem_nerf::ModelInfoConstPtr& message);
+  void onRenderCameraInfo(const sensor_msgs::CameraInfoConstPtr& message);
+  /// A new ~rendered subscriber gets the latest result rendered at once.
+  void onRenderSubscriber(const image_transport::SingleSubscriberPublisher&);
   bool solve(dem_nerf::Solve::Request& request, dem_nerf::Solve::Response& response);
 
   /// The current scenario with a load case's fixtures and loads; throws core::Error saying what
@@ -52,7 +66,12 @@ class DemNode {
   /// Queues a solve of the current state when particles and a scenario are there.
   void requestSolve(const std::string& cause);
   void runSolve(const SolveJob& job);
+  /// The DEM solve of a job through dem_session_; `how` says instant / warm / cold.
+  demnerf::mechanics::SimulationOutcome solveWithSession(const SolveJob& job, std::string& how);
   void publishResult(const demnerf::mechanics::SimulationOutcome& outcome, const demnerf::core::Scenario& scenario);
+  /// Keeps the result for later subscribers and queues a render when someone listens.
+  void requestRender(const demnerf::core::ResultField& result);
+  void runRender(const RenderJob& job);
   void publishStatus(const std::string& stage, const std::string& message);
   void reportError(const std::string& message);
   void publishPeriodicStatus(const ros::TimerEvent&);
@@ -62,7 +81,7 @@ class DemNode {
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
   ros::Subscriber particles_subscriber_, fixtures_subscriber_, wrench_subscriber_, load_case_subscriber_,
-      model_subscriber_;
+      model_subscriber_, render_camera_info_subscriber_;
   ros::Publisher displaced_publisher_, markers_publisher_, status_publisher_;
   image_transport::Publisher rendered_publisher_;
   ros::ServiceServer solve_service_;
@@ -75,8 +94,22 @@ class DemNode {
   std::string stage_ = "idle";
   std::string last_error_;
   std::string last_figures_;
+  std::string model_info_path_, model_info_frame_;  ///< from the last ModelInfo on `model`
+  std::optional<demnerf::core::PinholeCamera> render_camera_;  ///< from ~render_camera_info
+  std::optional<demnerf::core::ResultField> last_result_;      ///< what a new subscriber sees
+  std::size_t renders_ = 0;
+  std::string last_render_;
 
-  std::unique_ptr<LatestWinsWorker<SolveJob>> worker_;  // last: its thread uses the members above
+  DeformedView view_;  ///< only the render worker's thread touches it
+  // The workers come last (their threads use the members above); the solve worker is destroyed
+  // first because its thread queues renders.
+  std::uint64_t particles_generation_ = 0;  ///< counts accepted particle clouds (guarded by mutex_)
+  // The DEM kept across solves (warm starts, instant parametric answers); worker thread only.
+  std::unique_ptr<demnerf::mechanics::DemSession> dem_session_;
+  std::uint64_t session_generation_ = 0;
+
+  std::unique_ptr<LatestWinsWorker<RenderJob>> render_worker_;
+  std::unique_ptr<LatestWinsWorker<SolveJob>> worker_;
 };
 
 }  // namespace dem_nerf

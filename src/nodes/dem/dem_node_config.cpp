@@ -14,9 +14,34 @@ DemNodeConfig DemNodeConfig::fromParameters(const ros::NodeHandle& node) {
   readNumber(node, "contact_radius", config.contact_radius, 0.0);
   node.param("particles_frame", config.particles_frame, config.particles_frame);
   node.param("render_frame", config.render_frame, config.render_frame);
+  node.param("model_path", config.model_path, config.model_path);
+  readCount(node, "render_width", config.render_width, 1);
+  readCount(node, "render_height", config.render_height, 1);
+  readNumber(node, "render_fov", config.render_fov, 1.0);
+  if (config.render_fov >= 180.0) throw demnerf::core::Error("parameter ~render_fov must lie below 180 degrees");
   readNumber(node, "tf_timeout", config.tf_timeout, 0.0);
   readCount(node, "threads", config.threads, 0);
+  readCount(node, "fem_order", config.fem_order, 1);
+  if (config.fem_order > 2) throw demnerf::core::Error("parameter ~fem_order must be 1 or 2");
+  readCount(node, "dem_iterations", config.dem_iterations, 0);
+  node.param("parametric", config.parametric, config.parametric);
+  node.param("load_range", config.load_range, config.load_range);
+  if (config.load_range.size() != 2 || !(config.load_range[0] < config.load_range[1]) || config.load_range[0] > 1.0 ||
+      config.load_range[1] < 1.0)
+    throw demnerf::core::Error("parameter ~load_range must be [min, max] with min <= 1 <= max (scales of the trained load)");
   return config;
+}
+
+demnerf::mechanics::SimulateOptions DemNodeConfig::simulateOptions() const {
+  demnerf::mechanics::SimulateOptions options;
+  options.voxel.order = fem_order;
+  options.dem.adam_iterations = dem_iterations;
+  options.dem.threads = threads;
+  options.dem.parametric = parametric;
+  options.dem.load_range_min = load_range[0];
+  options.dem.load_range_max = load_range[1];
+  options.pinn.threads = threads;
+  return options;
 }
 
 }  // namespace dem_nerf

@@ -4,6 +4,9 @@
 #include <ros/ros.h>
 
 #include <string>
+#include <vector>
+
+#include "demnerf/mechanics/simulate.hpp"
 
 namespace dem_nerf {
 
@@ -13,8 +16,21 @@ struct DemNodeConfig {
   double contact_radius = 0.02;    ///< m: a wrench acts on surface particles this close to its frame origin
   std::string particles_frame = "world";
   std::string render_frame;        ///< optical frame to render the deformed object from (empty: no render)
+  std::string model_path;          ///< NeRF model file for ~rendered until a ModelInfo on `model` names one
+  int render_width = 160;          ///< render size and horizontal field of view, used until a
+  int render_height = 120;         ///<   CameraInfo arrives on ~render_camera_info
+  double render_fov = 60.0;        ///< degrees
   double tf_timeout = 0.2;         ///< s to wait for the wrench frame
   int threads = 0;                 ///< torch threads (0: all cores)
+  int fem_order = 1;               ///< FEM baseline: 1 linear tets (seconds), 2 quadratic (minutes on 10k particles)
+  int dem_iterations = 1500;       ///< DEM Adam iterations per load step
+  /// DEM parametric mode: trained once over load scales in load_range (relative to the first
+  /// load it solves); later loads that only scale it within the range are answered at once.
+  bool parametric = false;
+  std::vector<double> load_range{0.0, 1.5};
+
+  /// The solver options these parameters imply.
+  demnerf::mechanics::SimulateOptions simulateOptions() const;
 
   /// Throws demnerf::core::Error naming the first bad parameter.
   static DemNodeConfig fromParameters(const ros::NodeHandle& private_node);

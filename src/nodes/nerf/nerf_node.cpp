@@ -157,10 +157,24 @@ NerfNode::NerfNode(ros::NodeHandle node, ros::NodeHandle private_node, const Ner
       resume_from_ = std::make_unique<demnerf::nerf::NerfModel>(demnerf::nerf::loadModel(config_.model_path));
       trained_ = std::make_shared<const demnerf::nerf::NerfModel>(*resume_from_);
       stage_ = "waiting_for_frames";
-      ROS_INFO("nerf_node: resuming from '%s'", config_.model_path.c_str());
-    } catch (const demnerf::core::Error& error) {
+    } catch (const std::exception& error) {
       reportError(std::string("not resuming: ") + error.what());
     }
+  }
+  if (resume_from_) {
+    try {
+      const std::optional<TrainingRecord> record = loadTrainingRecord(config_.model_path);
+      resumed_ = record.value_or(TrainingRecord{});
+      resume_note_ = record ? "resumed from iteration " + std::to_string(resumed_.iteration) + " (" +
+                                  std::to_string(static_cast<int>(resumed_.seconds)) + " s of training) of '" +
+                                  config_.model_path + "'"
+                            : "resumed the weights of '" + config_.model_path +
+                                  "' (no training record beside it: the iteration count starts at 0)";
+    } catch (const demnerf::core::Error& error) {
+      resume_note_ = "resumed the weights of '" + config_.model_path + "'; iteration count starts at 0";
+      reportError(error.what());
+    }
+    ROS_INFO("nerf_node: %s", resume_note_.c_str());
   }
   status_timer_ = private_node.createTimer(ros::Duration(1.0), &NerfNode::publishStatus, this);
   poll_timer_ = private_node.createTimer(ros::Duration(0.05), &NerfNode::pollFrames, this);
@@ -215,14 +229,27 @@ void NerfNode::startTraining() {
     resume_from_.reset();
     trainer->addFrames(keyframes_);
     demnerf::nerf::BackgroundTrainerConfig background;
-    background.stop.seconds = config_.train_seconds;
-    background.stop.iterations = config_.max_iterations;
-    background.autosave_seconds = config_.autosave_seconds;
+    // A resumed run continues the same budget. One already spent still trains a moment, so that
+    // the usual end of training (model, particles, mesh) happens in this session too.
+    background.stop.seconds =
+        config_.train_seconds > 0 ? std::max(config_.train_seconds - resumed_.seconds, 1.0) : 0.0;
+    background.stop.iterations =
+        config_.max_iterations > 0 ? std::max<std::int64_t>(config_.max_iterations - resumed_.iteration, 1) : 0;
+    // The node autosaves itself (in the progress callback) so that every model file gets a
+    // training record with exactly its iteration; the background trainer only saves at the end.
+    background.autosave_seconds = 0;
     background.model_path = config_.model_path;
+    last_autosave_ = 0;
+    demnerf::nerf::Trainer* live = trainer.get();  // owned by the background trainer from here on
     demnerf::nerf::BackgroundTrainerCallbacks callbacks;
-    callbacks.progress = [this](const demnerf::nerf::TrainProgress& progress) {
+    callbacks.progress = [this, live](const demnerf::nerf::TrainProgress& progress) {
+      // Runs on the training thread between iterations, so the live model is consistent.
+      if (config_.autosave_seconds > 0 && progress.seconds - last_autosave_ >= config_.autosave_seconds) {
+        last_autosave_ = progress.seconds;
+        autosave(live->model(), progress);
+      }
       std::lock_guard<std::mutex> lock(mutex_);
-      progress_ = progress;
+      progress_ = overAllRuns(progress);
     };
     callbacks.done = [this](const demnerf::nerf::NerfModel& model, const demnerf::nerf::TrainProgress& progress) {
       onTrained(model, progress);
@@ -239,17 +266,46 @@ void NerfNode::startTraining() {
 }
 
 // Runs on the training thread once training ends: the slow extraction stays off ROS callbacks.
-void NerfNode::onTrained(const demnerf::nerf::NerfModel& model, const demnerf::nerf::TrainProgress& progress) {
+void NerfNode::onTrained(const demnerf::nerf::NerfModel& model, const demnerf::nerf::TrainProgress& session) {
   auto trained = std::make_shared<const demnerf::nerf::NerfModel>(model);
+  demnerf::nerf::TrainProgress progress;
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    progress = overAllRuns(session);
     trained_ = trained;
     progress_ = progress;
     stage_ = "trained";
   }
+  try {  // the background trainer has just written the final model file
+    saveTrainingRecord(config_.model_path, {progress.iteration, progress.seconds, progress.psnr});
+  } catch (const demnerf::core::Error& error) {
+    reportError(error.what());
+  }
   ROS_INFO("nerf_node: trained, %lld iterations, training PSNR %.2f dB", static_cast<long long>(progress.iteration),
            progress.psnr);
   publishModel(trained, static_cast<std::uint32_t>(progress.iteration), static_cast<float>(progress.psnr));
+}
+
+void NerfNode::autosave(const demnerf::nerf::NerfModel& model, const demnerf::nerf::TrainProgress& session) {
+  TrainingRecord record;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const demnerf::nerf::TrainProgress progress = overAllRuns(session);
+    record = {progress.iteration, progress.seconds, progress.psnr};
+  }
+  try {
+    demnerf::nerf::saveModel(model, config_.model_path);
+    saveTrainingRecord(config_.model_path, record);
+  } catch (const demnerf::core::Error& error) {
+    // A full disk must not end training: report it; the previous files stay as they were.
+    reportError(std::string("autosave failed: ") + error.what());
+  }
+}
+
+demnerf::nerf::TrainProgress NerfNode::overAllRuns(demnerf::nerf::TrainProgress progress) {
+  progress.iteration += resumed_.iteration;
+  progress.seconds += resumed_.seconds;
+  return progress;
 }
 
 void NerfNode::publishModel(std::shared_ptr<const demnerf::nerf::NerfModel> model, std::uint32_t iteration,
@@ -317,7 +373,8 @@ void NerfNode::publishStatus(const ros::TimerEvent&) {
     status.psnr = static_cast<float>(progress_.psnr);
     status.rays_per_second = static_cast<float>(progress_.rays_per_second);
     status.frames = static_cast<uint32_t>(keyframes_.size());
-    status.message = describe(counts) + (last_error_.empty() ? "" : " (last error: " + last_error_ + ")");
+    status.message = describe(counts) + (resume_note_.empty() ? "" : "; " + resume_note_) +
+                     (last_error_.empty() ? "" : " (last error: " + last_error_ + ")");
   }
   status_publisher_.publish(status);
   diagnostics_.update();  // takes mutex_ itself, in fillDiagnostics
@@ -427,7 +484,7 @@ bool NerfNode::load(dem_nerf::LoadModel::Request& request, dem_nerf::LoadModel::
     publishModel(model, 0, 0.0f);
     response.ok = true;
     response.message = "loaded " + request.path;
-  } catch (const demnerf::core::Error& error) {
+  } catch (const std::exception& error) {  // core::Error, and whatever a garbage file makes torch throw
     response.ok = false;
     response.message = error.what();  // the model in use, if any, is kept
     reportError(response.message);
@@ -446,6 +503,9 @@ bool NerfNode::reset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& r
   std::lock_guard<std::mutex> lock(mutex_);
   keyframes_.clear();
   trained_.reset();
+  resume_from_.reset();
+  resumed_ = {};
+  resume_note_.clear();
   progress_ = {};
   stage_ = "waiting_for_frames";
   last_error_.clear();

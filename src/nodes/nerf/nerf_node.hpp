@@ -23,6 +23,7 @@
 #include "demnerf/nerf/config.hpp"
 #include "nodes/nerf/frame_intake.hpp"
 #include "nodes/nerf/nerf_node_config.hpp"
+#include "nodes/nerf/training_record.hpp"
 
 namespace dem_nerf {
 
@@ -38,6 +39,10 @@ class NerfNode {
   void pollFrames(const ros::TimerEvent&);
   void startTraining();  // with mutex_ held
   void onTrained(const demnerf::nerf::NerfModel& model, const demnerf::nerf::TrainProgress& progress);
+  /// On the training thread, between iterations: the model file, then its training record.
+  void autosave(const demnerf::nerf::NerfModel& model, const demnerf::nerf::TrainProgress& progress);
+  /// This session's progress counted from the start of the first run (adds resumed_).
+  demnerf::nerf::TrainProgress overAllRuns(demnerf::nerf::TrainProgress progress);  // with mutex_ held
   void publishModel(std::shared_ptr<const demnerf::nerf::NerfModel> model, std::uint32_t iteration, float psnr);
   void publishStatus(const ros::TimerEvent&);
   void publishPreview();
@@ -69,6 +74,9 @@ class NerfNode {
   std::vector<demnerf::core::Frame> keyframes_;
   std::unique_ptr<demnerf::nerf::BackgroundTrainer> background_;
   std::unique_ptr<demnerf::nerf::NerfModel> resume_from_;  ///< a saved model training continues from
+  TrainingRecord resumed_;   ///< iterations and seconds behind resume_from_ (zero for a fresh model)
+  std::string resume_note_;  ///< what was resumed, for ~status
+  double last_autosave_ = 0; ///< session seconds of the last autosave (training thread only)
   std::shared_ptr<const demnerf::nerf::NerfModel> trained_;
   demnerf::nerf::TrainProgress progress_;
   std::string stage_ = "waiting_for_frames";

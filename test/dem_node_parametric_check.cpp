@@ -1,0 +1,135 @@
+// rostest node: dem_node's parametric DEM answers a scaled wrench without training (its status
+// says "instant", and the displacement scales with the load), and trains again for a wrench in
+// another direction.
+
+#include <dem_nerf/TrainingStatus.h>
+#include <geometry_msgs/WrenchStamped.h>
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <sensor_msgs/point_cloud2_iterator.h>
+#include <tf2_ros/static_transform_broadcaster.h>
+
+#include <cstdio>
+#include <mutex>
+#include <optional>
+#include <string>
+
+#include "check_helpers.hpp"
+#include "conversions/cloud_conversions.hpp"
+
+namespace {
+
+struct Answer {
+  double tip_uz = 0.0;   // mean z displacement of the free end
+  double seconds = 0.0;  // wall time from the wrench to the displaced cloud
+  std::string how;       // the solved status message
+};
+
+class ParametricCheck {
+ public:
+  ParametricCheck() {
+    displaced_subscriber_ = node_.subscribe<sensor_msgs::PointCloud2>(
+        "/dem_node/displaced", 1, [this](const sensor_msgs::PointCloud2ConstPtr& message) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          displaced_ = *message;
+        });
+    status_subscriber_ = node_.subscribe<dem_nerf::TrainingStatus>(
+        "/dem_node/status", 10, [this](const dem_nerf::TrainingStatusConstPtr& message) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          if (message->stage == "solved") solved_message_ = message->message;
+        });
+    wrenches_ = node_.advertise<geometry_msgs::WrenchStamped>("/dem_node/wrench", 1, true);
+  }
+
+  // Sends a wrench in the tool frame and waits for the displaced cloud answering it.
+  std::optional<Answer> apply(double fy, double fz) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      displaced_.reset();
+      solved_message_.clear();
+    }
+    geometry_msgs::WrenchStamped wrench;
+    wrench.header.frame_id = "tool";
+    wrench.header.stamp = ros::Time(0);
+    wrench.wrench.force.y = fy;
+    wrench.wrench.force.z = fz;
+    const ros::WallTime start = ros::WallTime::now();
+    wrenches_.publish(wrench);
+    const ros::WallTime deadline = start + ros::WallDuration(60);
+    while (ros::ok() && ros::WallTime::now() < deadline) {
+      ros::spinOnce();
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (displaced_ && !solved_message_.empty()) {
+          Answer answer;
+          answer.seconds = (ros::WallTime::now() - start).toSec();
+          answer.how = solved_message_;
+          const auto field = dem_nerf::resultFromPointCloud2(*displaced_, /*displaced_positions=*/true);
+          int count = 0;
+          for (std::size_t i = 0; i < field.size(); ++i) {
+            if (field.positions[i].x() < 0.1 - 1e-4) continue;
+            answer.tip_uz += field.displacements[i].z();
+            ++count;
+          }
+          answer.tip_uz /= std::max(count, 1);
+          return answer;
+        }
+      }
+      ros::WallDuration(0.02).sleep();
+    }
+    return std::nullopt;
+  }
+
+ private:
+  ros::NodeHandle node_;
+  ros::Subscriber displaced_subscriber_, status_subscriber_;
+  ros::Publisher wrenches_;
+  std::mutex mutex_;
+  std::optional<sensor_msgs::PointCloud2> displaced_;
+  std::string solved_message_;
+};
+
+TEST(DemNodeParametric, ScaledWrenchesAreAnsweredWithoutTraining) {
+  ros::NodeHandle node;
+  tf2_ros::StaticTransformBroadcaster broadcaster;
+  geometry_msgs::TransformStamped tool;
+  tool.header.stamp = ros::Time::now();
+  tool.header.frame_id = "world";
+  tool.child_frame_id = "tool";
+  tool.transform.translation.x = 0.1;
+  tool.transform.rotation.w = 1.0;
+  broadcaster.sendTransform(tool);
+  ros::Publisher particles = node.advertise<sensor_msgs::PointCloud2>("/particles", 1, true);
+  std_msgs::Header header;
+  header.frame_id = "world";
+  header.stamp = ros::Time::now();
+  particles.publish(dem_nerf::toPointCloud2(dem_nerf_test::barParticles(), header));
+  ros::WallDuration(1.0).sleep();  // let dem_node take the particles first
+
+  ParametricCheck check;
+  ros::WallDuration(0.5).sleep();
+  const auto trained = check.apply(0.0, -0.002);
+  ASSERT_TRUE(trained) << "no answer to the first wrench within 60 s";
+  EXPECT_NE(trained->how.find("cold DEM"), std::string::npos) << trained->how;
+  const auto half = check.apply(0.0, -0.001);
+  ASSERT_TRUE(half) << "no answer to the scaled wrench within 60 s";
+  std::printf("trained answer %.2f s (%s), scaled answer %.2f s (%s); tip uz %.3g -> %.3g m\n", trained->seconds,
+              trained->how.c_str(), half->seconds, half->how.c_str(), trained->tip_uz, half->tip_uz);
+  EXPECT_NE(half->how.find("instant"), std::string::npos) << half->how;
+  EXPECT_LT(trained->tip_uz, -1e-5);
+  // Small loads: nearly linear, so half the force moves the tip about half as far.
+  EXPECT_NEAR(half->tip_uz / trained->tip_uz, 0.5, 0.1);
+  const auto turned = check.apply(-0.002, 0.0);
+  ASSERT_TRUE(turned) << "no answer to the turned wrench within 60 s";
+  EXPECT_NE(turned->how.find("warm DEM"), std::string::npos) << turned->how;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "dem_node_parametric_check");
+  ros::NodeHandle node;
+  return RUN_ALL_TESTS();
+}
