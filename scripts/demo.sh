@@ -7,9 +7,11 @@ DATA=${2:-}
 SOLVER=${SOLVER:-fem}          # dem | fem: the DEM on the T-bar still takes minutes on 2 cores
 TRAIN_SECONDS=${TRAIN_SECONDS:-60}
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
+# The build folder as an absolute path (relative ones are taken from the repository root).
+BUILD_DIR=$(cd "$ROOT" && realpath -m "$BUILD_DIR")
 cd "$ROOT"
 OUT="$ROOT/output/demo"
-CLI="$ROOT/$BUILD_DIR/bin/demnerf"
+CLI="$BUILD_DIR/bin/demnerf"
 SCENARIO=${SCENARIO:-config/scenarios/tbar_twist.yaml}
 [[ $SCENARIO = /* ]] || SCENARIO="$ROOT/$SCENARIO"
 mkdir -p "$OUT"
@@ -52,10 +54,10 @@ ros_run() {
   (
     set +u
     export PATH="/usr/bin:$PATH"
-    export ROS_HOME="$ROOT/$BUILD_DIR/ros_home_demo"
+    export ROS_HOME="$BUILD_DIR/ros_home_demo"
     export ROS_MASTER_URI=http://localhost:11399  # its own master, beside any other ROS session
     # shellcheck disable=SC1090,SC1091
-    source "$ROOT/$BUILD_DIR/devel/setup.bash"
+    source "$BUILD_DIR/devel/setup.bash"
     roslaunch -p 11399 dem_nerf tbar_demo.launch test:=true out_dir:="$OUT" bag:="$OUT/dataset.bag" \
       scenario:="$SCENARIO" solver:="$SOLVER" model_path:="$OUT/model.nerf" train_seconds:="$TRAIN_SECONDS"
   ) > "$OUT/ros.log" 2>&1

@@ -5,12 +5,14 @@
 set -uo pipefail
 BUILD_DIR=${1:-build}
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
+# The build folder as an absolute path (relative ones are taken from the repository root).
+BUILD_DIR=$(cd "$ROOT" && realpath -m "$BUILD_DIR")
 cd "$ROOT"
-BIN="$ROOT/$BUILD_DIR/bin/bench"
+BIN="$BUILD_DIR/bin/bench"
 OUT="$ROOT/output/bench"
 mkdir -p "$OUT"
 TBAR="$ROOT/output/tbar"
-[ -f "$TBAR/transforms_train.json" ] || "$ROOT/$BUILD_DIR/bin/demnerf" synth --scene tbar --out "$TBAR" > /dev/null
+[ -f "$TBAR/transforms_train.json" ] || "$BUILD_DIR/bin/demnerf" synth --scene tbar --out "$TBAR" > /dev/null
 
 declare -A COMMANDS=(
   [render_synth_bench]="--repeat 3 --out $OUT/synth"

@@ -5,12 +5,14 @@
 set -uo pipefail
 BUILD_DIR=${1:-build}
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
+# The build folder as an absolute path (relative ones are taken from the repository root).
+BUILD_DIR=$(cd "$ROOT" && realpath -m "$BUILD_DIR")
 cd "$ROOT"
-RESULTS="$ROOT/$BUILD_DIR/test_results"
+RESULTS="$BUILD_DIR/test_results"
 rm -rf "$RESULTS" && mkdir -p "$RESULTS/rostest"
 # ROS's Python tools (rostest, hztest) need Debian's python3, which a pyenv or venv may shadow.
 export PATH="/usr/bin:$PATH"
-export ROS_HOME="$ROOT/$BUILD_DIR/ros_home"
+export ROS_HOME="$BUILD_DIR/ros_home"
 rm -rf "$ROS_HOME" && mkdir -p "$ROS_HOME"  # no model autosaved by an earlier run is resumed
 export ROS_TEST_RESULTS_DIR="$RESULTS/rostest"
 export ROSCONSOLE_FORMAT='[${severity}] [${node}]: ${message}'
@@ -27,7 +29,7 @@ echo "== gtests"
 
 echo "== rostests"
 # A small synthetic scene for the tests that train (made by our own renderer, so no ../shared).
-TEST_DATA="$ROOT/$BUILD_DIR/test_data"
+TEST_DATA="$BUILD_DIR/test_data"
 if [ ! -f "$TEST_DATA/cuboid/transforms_train.json" ]; then
   "$BUILD_DIR/bin/demnerf" synth --scene cuboid --views 24 --test-views 4 --size 64 --out "$TEST_DATA/cuboid" > /dev/null \
     || { echo "could not generate the test scene"; status=1; }
