@@ -6,11 +6,24 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <map>
+#include <string>
 #include <vector>
 
 #include "demnerf/core/ply.hpp"
 
 namespace demnerf::bench {
+
+/// The mechanics benches' key=value arguments (words without '=' are ignored).
+inline std::map<std::string, std::string> keyValueArguments(int argc, char** argv) {
+  std::map<std::string, std::string> a;
+  for (int i = 1; i < argc; ++i) {
+    const std::string s = argv[i];
+    const auto eq = s.find('=');
+    if (eq != std::string::npos) a[s.substr(0, eq)] = s.substr(eq + 1);
+  }
+  return a;
+}
 
 using Eigen::Vector3d;
 namespace core = demnerf::core;

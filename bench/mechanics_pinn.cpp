@@ -49,31 +49,7 @@ Case uniaxialCase(int cells) {
   c.name = "uniaxial";
   c.cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(cells, cells, cells));
   core::Scenario& s = c.scenario;
-  s.name = "uniaxial";
-  s.material.youngs_modulus = 1e6;
-  s.material.poisson_ratio = 0.3;
-  auto slab = [](int axis, double at) {
-    core::Region r;
-    r.type = core::Region::Type::kBox;
-    r.center = Vector3d(0.5, 0.5, 0.5);
-    r.center(axis) = at;
-    r.size = Vector3d(2, 2, 2);
-    r.size(axis) = 1e-6;
-    return r;
-  };
-  for (int axis = 0; axis < 3; ++axis) {
-    core::Fixture f;
-    f.name = std::string("roller_") + "xyz"[axis];
-    f.region = slab(axis, 0.0);
-    f.constrained = Eigen::Vector3i::Zero();
-    f.constrained(axis) = 1;
-    s.fixtures.push_back(f);
-  }
-  core::Load pull;
-  pull.name = "pull";
-  pull.region = slab(0, 1.0);
-  pull.force = Vector3d(2e5, 0, 0);
-  s.loads = {pull};
+  s = dm::uniaxialTractionScenario(2e5);
   double b = 0;
   const double a = dm::uniaxialStretchForStress(*dm::makeMaterial(s.material), 2e5, &b);
   for (const auto& X : c.cloud.positions) c.reference.emplace_back((a - 1) * X.x(), (b - 1) * X.y(), (b - 1) * X.z());
@@ -112,12 +88,7 @@ Case tbarCase(double h, const std::string& scenario, const std::string& ref) {
 
 int main(int argc, char** argv) {
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
-  std::map<std::string, std::string> a;
-  for (int i = 1; i < argc; ++i) {
-    const std::string s = argv[i];
-    const auto eq = s.find('=');
-    if (eq != std::string::npos) a[s.substr(0, eq)] = s.substr(eq + 1);
-  }
+  std::map<std::string, std::string> a = demnerf::bench::keyValueArguments(argc, argv);
   auto num = [&](const char* k, double d) { return a.count(k) ? std::atof(a[k].c_str()) : d; };
   const std::string which = a.count("case") ? a["case"] : "both";
   dm::PinnConfig config;

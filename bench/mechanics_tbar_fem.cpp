@@ -70,12 +70,7 @@ struct Level {
 
 int main(int argc, char** argv) {
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
-  std::map<std::string, std::string> a;
-  for (int i = 1; i < argc; ++i) {
-    const std::string s = argv[i];
-    const auto eq = s.find('=');
-    if (eq != std::string::npos) a[s.substr(0, eq)] = s.substr(eq + 1);
-  }
+  std::map<std::string, std::string> a = demnerf::bench::keyValueArguments(argc, argv);
   auto str = [&](const char* k, const std::string& d) { return a.count(k) ? a[k] : d; };
   auto num = [&](const char* k, double d) { return a.count(k) ? std::atof(a[k].c_str()) : d; };
   core::Scenario scenario =

@@ -3,9 +3,6 @@
 
 #include <torch/torch.h>
 
-#include <dlfcn.h>
-#include <malloc.h>
-
 #include <algorithm>
 #include <chrono>
 #include <limits>
@@ -21,51 +18,15 @@
 #include "demnerf/mechanics/material.hpp"
 #include "demnerf/mechanics/output_layer_newton.hpp"
 #include "demnerf/mechanics/particle_quadrature.hpp"
+#include "torch_solver_support.hpp"
 
 namespace demnerf::mechanics {
 namespace {
 
 using torch::Tensor;
-
-Tensor toTensor(const std::vector<Eigen::Vector3d>& v, torch::Dtype dtype) {
-  std::vector<double> flat(3 * v.size());
-  for (std::size_t i = 0; i < v.size(); ++i)
-    for (int c = 0; c < 3; ++c) flat[3 * i + c] = v[i](c);
-  return torch::from_blob(flat.data(), {static_cast<long>(v.size()), 3}, torch::kFloat64).clone().to(dtype);
-}
-
-Tensor toTensor(const std::vector<Eigen::Matrix3d>& v, torch::Dtype dtype) {
-  std::vector<double> flat(9 * v.size());
-  for (std::size_t i = 0; i < v.size(); ++i)
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) flat[9 * i + 3 * r + c] = v[i](r, c);
-  return torch::from_blob(flat.data(), {static_cast<long>(v.size()), 3, 3}, torch::kFloat64).clone().to(dtype);
-}
-
-Tensor toTensor(const std::vector<double>& v, torch::Dtype dtype) {
-  std::vector<double> copy = v;
-  return torch::from_blob(copy.data(), {static_cast<long>(v.size())}, torch::kFloat64).clone().to(dtype);
-}
-
-// Torch's CPU matmuls go to the system BLAS (OpenBLAS on Debian), whose own thread pool ignores
-// at::set_num_threads; its spinning workers made a T-bar step 1.8x slower on a loaded 2-core
-// machine. Set it through dlsym so a build against another BLAS still links.
-void setBlasThreads(int threads) {
-  using SetThreads = void (*)(int);
-  if (auto f = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) f(threads);
-}
-
-// Every Adam step allocates and frees the same few-MB activation tensors; glibc serves blocks
-// above its mmap threshold with fresh zeroed pages each time (page faults were ~15 % of a step).
-// Keeping them in the heap halves the step time at T-bar sizes. Process-wide, set once.
-void keepLargeAllocationsInHeap() {
-  static const bool done = [] {
-    mallopt(M_MMAP_THRESHOLD, 512 * 1024 * 1024);
-    mallopt(M_TRIM_THRESHOLD, 1024 * 1024 * 1024);
-    return true;
-  }();
-  (void)done;
-}
+using torch_support::keepLargeAllocationsInHeap;
+using torch_support::setBlasThreads;
+using torch_support::toTensor;
 
 // Row-major tensor (rows x cols) -> Eigen, in double.
 Eigen::MatrixXd toEigen(const Tensor& t) {
@@ -187,12 +148,7 @@ struct DemSolver::Impl {
 
   Tensor strainEnergy(const Tensor& F, Tensor& J) const {
     J = det3(F);
-    const Tensor I1 = (F * F).sum({1, 2});
-    const Tensor lnJ = torch::log(J);
-    const double mu = material->mu();
-    if (scenario.material.model == "neo_hookean_decoupled")
-      return 0.25 * material->kappa() * (J * J - 1 - 2 * lnJ) + 0.5 * mu * (torch::pow(J, -2.0 / 3.0) * I1 - 3);
-    return 0.5 * mu * (I1 - 3) - mu * lnJ + 0.5 * material->lambda() * lnJ * lnJ;
+    return torch_support::neoHookeanEnergyDensity(J, (F * F).sum({1, 2}), *material, scenario.material.model);
   }
 
   // Loss at load fraction `scale`: Pi / energy_scale (+ penalty). Sets the potential energy and min J.
@@ -258,16 +214,8 @@ struct DemSolver::Impl {
     return total;
   }
 
-  std::vector<Tensor> snapshot() const {
-    std::vector<Tensor> s;
-    for (const Tensor& p : parameters()) s.push_back(p.detach().clone());
-    return s;
-  }
-  void restore(const std::vector<Tensor>& s) {
-    torch::NoGradGuard guard;
-    auto p = parameters();
-    for (std::size_t i = 0; i < p.size(); ++i) p[i].copy_(s[i]);
-  }
+  std::vector<Tensor> snapshot() const { return torch_support::snapshot(parameters()); }
+  void restore(const std::vector<Tensor>& s) { torch_support::restore(parameters(), s); }
 
   // Energy (J) at the particles' nominal positions with the output amplitude multiplied by alpha;
   // NaN when a particle inverts.

@@ -3,9 +3,6 @@
 
 #include <torch/torch.h>
 
-#include <dlfcn.h>
-#include <malloc.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -17,45 +14,16 @@
 #include "demnerf/core/error.hpp"
 #include "demnerf/mechanics/boundary_conditions.hpp"
 #include "demnerf/mechanics/material.hpp"
+#include "torch_solver_support.hpp"
 
 namespace demnerf::mechanics {
 namespace {
 
 using torch::Tensor;
-
-Tensor vectorsToTensor(const std::vector<Eigen::Vector3d>& v, torch::Dtype dtype) {
-  Tensor t = torch::empty({static_cast<long>(v.size()), 3}, torch::kFloat64);
-  double* p = t.data_ptr<double>();
-  for (std::size_t i = 0; i < v.size(); ++i)
-    for (int c = 0; c < 3; ++c) p[3 * i + c] = v[i](c);
-  return t.to(dtype);
-}
-
-std::vector<Eigen::Vector3d> tensorToVectors(const Tensor& t) {
-  const Tensor d = t.to(torch::kFloat64).contiguous();
-  const double* p = d.data_ptr<double>();
-  std::vector<Eigen::Vector3d> out(static_cast<std::size_t>(d.size(0)));
-  for (std::size_t i = 0; i < out.size(); ++i) out[i] = Eigen::Vector3d(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
-  return out;
-}
-
-// OpenBLAS keeps its own thread pool, which at::set_num_threads does not reach; its spinning
-// workers slow small matmuls on a loaded machine. Looked up at run time so other BLASes link.
-void limitBlasThreads(int threads) {
-  using Fn = void (*)(int);
-  if (auto f = reinterpret_cast<Fn>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) f(threads);
-}
-
-// Each Adam step allocates the same few-MB derivative tensors; above glibc's mmap threshold they
-// would be fresh zeroed pages every step. Process-wide, idempotent.
-void reuseLargeBlocks() {
-  static const bool once = [] {
-    mallopt(M_MMAP_THRESHOLD, 512 * 1024 * 1024);
-    mallopt(M_TRIM_THRESHOLD, 1024 * 1024 * 1024);
-    return true;
-  }();
-  (void)once;
-}
+using torch_support::keepLargeAllocationsInHeap;
+using torch_support::setBlasThreads;
+using torch_support::toTensor;
+using torch_support::toVectors;
 
 // Unordered index pairs (k <= m) of the symmetric Hessian, and the slot of each (k, m).
 const long kPairK[6] = {0, 0, 0, 1, 1, 2};
@@ -256,11 +224,8 @@ struct PinnSolver::Impl {
       const Tensor F = eye3 + o.dz.transpose(1, 2) * out_scale;
       Tensor J, Finv;
       std::tie(Finv, J) = inverse3(F);
-      const Tensor I1 = (F * F).sum({1, 2}), lnJ = torch::log(J);
-      const double mu = material->mu();
-      const Tensor psi = scenario.material.model == "neo_hookean_decoupled"
-                             ? 0.25 * material->kappa() * (J * J - 1 - 2 * lnJ) + 0.5 * mu * (torch::pow(J, -2.0 / 3.0) * I1 - 3)
-                             : 0.5 * mu * (I1 - 3) - mu * lnJ + 0.5 * material->lambda() * lnJ * lnJ;
+      const Tensor psi =
+          torch_support::neoHookeanEnergyDensity(J, (F * F).sum({1, 2}), *material, scenario.material.model);
       e += ((psi * vol_r).sum() - scale * (body_r * u * vol_r.unsqueeze(1)).sum()).item<double>();
     }
     if (xs.size(0) > 0) {
@@ -270,16 +235,8 @@ struct PinnSolver::Impl {
     return e;
   }
 
-  std::vector<Tensor> snapshot() const {
-    std::vector<Tensor> s;
-    for (const Tensor& p : parameters()) s.push_back(p.detach().clone());
-    return s;
-  }
-  void restore(const std::vector<Tensor>& s) {
-    torch::NoGradGuard guard;
-    auto p = parameters();
-    for (std::size_t i = 0; i < p.size(); ++i) p[i].copy_(s[i]);
-  }
+  std::vector<Tensor> snapshot() const { return torch_support::snapshot(parameters()); }
+  void restore(const std::vector<Tensor>& s) { torch_support::restore(parameters(), s); }
 
   // Loss with the output amplitude times alpha and the normalisation kept; NaN when inverted.
   double lossWithAmplitude(double scale, double alpha) {
@@ -417,8 +374,8 @@ PinnSolver::PinnSolver(core::ParticleCloud cloud, const core::Scenario& scenario
                       : m.cloud.size() < 50000 ? 1
                                                : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   at::set_num_threads(threads);
-  limitBlasThreads(threads);
-  reuseLargeBlocks();
+  setBlasThreads(threads);
+  keepLargeAllocationsInHeap();
   torch::manual_seed(config.seed);
 
   Eigen::Vector3d lo = m.cloud.positions[0], hi = lo;
@@ -429,8 +386,8 @@ PinnSolver::PinnSolver(core::ParticleCloud cloud, const core::Scenario& scenario
   const Eigen::Vector3d half = (0.5 * (hi - lo)).cwiseMax(1e-9 * (hi - lo).norm() + 1e-12);
   m.length = (hi - lo).maxCoeff();
   const auto opts = torch::TensorOptions().dtype(m.dtype);
-  m.center_t = vectorsToTensor({0.5 * (lo + hi)}, m.dtype);
-  m.inv_half = vectorsToTensor({half.cwiseInverse()}, m.dtype).squeeze(0);
+  m.center_t = toTensor(std::vector<Eigen::Vector3d>{0.5 * (lo + hi)}, m.dtype);
+  m.inv_half = toTensor(std::vector<Eigen::Vector3d>{half.cwiseInverse()}, m.dtype).squeeze(0);
   m.eye3 = torch::eye(3, opts).unsqueeze(0);
   m.pair_k = torch::from_blob(const_cast<long*>(kPairK), {6}, torch::kLong).clone();
   m.pair_m = torch::from_blob(const_cast<long*>(kPairM), {6}, torch::kLong).clone();
@@ -465,15 +422,15 @@ PinnSolver::PinnSolver(core::ParticleCloud cloud, const core::Scenario& scenario
   const auto scalars = [&](const std::vector<double>& v) {
     return torch::from_blob(const_cast<double*>(v.data()), {static_cast<long>(v.size())}, torch::kFloat64).clone().to(m.dtype);
   };
-  m.xr = vectorsToTensor(xr, m.dtype);
-  m.free_r = vectorsToTensor(fr, m.dtype);
+  m.xr = toTensor(xr, m.dtype);
+  m.free_r = toTensor(fr, m.dtype);
   m.vol_r = scalars(vr);
   m.cell_r = torch::pow(m.vol_r, 1.0 / 3.0).unsqueeze(1);
-  m.body_r = vectorsToTensor({scenario.body_force}, m.dtype);
-  m.xs = vectorsToTensor(xs, m.dtype);
-  m.normal_s = vectorsToTensor(ns, m.dtype);
-  m.traction_s = vectorsToTensor(ts, m.dtype);
-  m.free_s = vectorsToTensor(fs, m.dtype);
+  m.body_r = toTensor(std::vector<Eigen::Vector3d>{scenario.body_force}, m.dtype);
+  m.xs = toTensor(xs, m.dtype);
+  m.normal_s = toTensor(ns, m.dtype);
+  m.traction_s = toTensor(ts, m.dtype);
+  m.free_s = toTensor(fs, m.dtype);
   m.area_s = scalars(as);
   std::vector<Eigen::Vector3d> xc, mask;
   double max_g = 0.0;
@@ -482,9 +439,9 @@ PinnSolver::PinnSolver(core::ParticleCloud cloud, const core::Scenario& scenario
     mask.push_back(fixed.mask[k].cast<double>());
     max_g = std::max(max_g, fixed.value[k].norm());
   }
-  m.xc = vectorsToTensor(xc, m.dtype);
-  m.fixed_value = vectorsToTensor(fixed.value, m.dtype);
-  m.fixed_mask = vectorsToTensor(mask, m.dtype);
+  m.xc = toTensor(xc, m.dtype);
+  m.fixed_value = toTensor(fixed.value, m.dtype);
+  m.fixed_mask = toTensor(mask, m.dtype);
   // A-priori displacement scale, as the DEM's; refitted by refitAmplitude during the first steps.
   m.out_scale = std::max({max_g, m.length * (max_t + scenario.body_force.norm() * m.length) /
                                      scenario.material.youngs_modulus,
@@ -558,16 +515,16 @@ std::vector<Eigen::Vector3d> PinnSolver::predict(const std::vector<Eigen::Vector
   const Impl& m = *impl_;
   if (points.empty()) return {};
   torch::NoGradGuard guard;
-  return tensorToVectors(m.network(vectorsToTensor(points, m.dtype), 0).z * m.out_scale);
+  return toVectors(m.network(toTensor(points, m.dtype), 0).z * m.out_scale);
 }
 
 core::ResultField PinnSolver::result() const {
   const Impl& m = *impl_;
   torch::NoGradGuard guard;
-  const Impl::NetOut o = m.network(vectorsToTensor(m.cloud.positions, m.dtype), 1);
+  const Impl::NetOut o = m.network(toTensor(m.cloud.positions, m.dtype), 1);
   core::ResultField r;
   r.positions = m.cloud.positions;
-  r.displacements = tensorToVectors(o.z * m.out_scale);
+  r.displacements = toVectors(o.z * m.out_scale);
   const Tensor gu = (o.dz.transpose(1, 2) * m.out_scale).to(torch::kFloat64).contiguous();
   const double* g = gu.data_ptr<double>();
   r.von_mises.resize(m.cloud.size());

@@ -15,38 +15,9 @@ using Eigen::Vector3d;
 
 namespace {
 
-core::Region slab(int axis, double at) {
-  core::Region r;
-  r.type = core::Region::Type::kBox;
-  r.center = Vector3d(0.5, 0.5, 0.5);
-  r.center(axis) = at;
-  r.size = Vector3d(2, 2, 2);
-  r.size(axis) = 1e-6;
-  return r;
-}
-
-// Unit cube on rollers (x = 0, y = 0, z = 0 faces each hold their normal component), pulled by
-// a uniform traction P11 on x = 1: a homogeneous state with a closed form.
+// Unit cube on rollers pulled by a uniform traction P11 on x = 1: a homogeneous closed form.
 core::Scenario uniaxial(double p11, const std::string& model = "neo_hookean") {
-  core::Scenario s;
-  s.name = "uniaxial";
-  s.material.model = model;
-  s.material.youngs_modulus = 1e6;
-  s.material.poisson_ratio = 0.3;
-  for (int axis = 0; axis < 3; ++axis) {
-    core::Fixture f;
-    f.name = std::string("roller_") + "xyz"[axis];
-    f.region = slab(axis, 0.0);
-    f.constrained = Eigen::Vector3i::Zero();
-    f.constrained(axis) = 1;
-    s.fixtures.push_back(f);
-  }
-  core::Load pull;
-  pull.name = "pull";
-  pull.region = slab(0, 1.0);
-  pull.force = Vector3d(p11, 0, 0);
-  s.loads = {pull};
-  return s;
+  return dm::uniaxialTractionScenario(p11, model);
 }
 
 TEST(Pinn, UniaxialTractionMatchesTheClosedForm) {

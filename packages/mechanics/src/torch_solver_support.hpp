@@ -1,0 +1,96 @@
+#pragma once
+// What the two network solvers (dem_solver.cpp, pinn_solver.cpp) share: Eigen <-> tensor
+// conversion, the Neo-Hookean energy density on batches, parameter snapshots, and the two
+// process settings that make small-batch training fast on a loaded CPU. Private to
+// packages/mechanics/src: only the torch translation units include it.
+
+#include <torch/torch.h>
+
+#include <dlfcn.h>
+#include <malloc.h>
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "demnerf/mechanics/material.hpp"
+
+namespace demnerf::mechanics::torch_support {
+
+using torch::Tensor;
+
+/// Rows of 3 (vectors) or 3x3 (matrices) or scalars, converted in double then cast to dtype.
+inline Tensor toTensor(const std::vector<Eigen::Vector3d>& v, torch::Dtype dtype) {
+  Tensor t = torch::empty({static_cast<long>(v.size()), 3}, torch::kFloat64);
+  double* p = t.data_ptr<double>();
+  for (std::size_t i = 0; i < v.size(); ++i)
+    for (int c = 0; c < 3; ++c) p[3 * i + c] = v[i](c);
+  return t.to(dtype);
+}
+
+inline Tensor toTensor(const std::vector<Eigen::Matrix3d>& v, torch::Dtype dtype) {
+  Tensor t = torch::empty({static_cast<long>(v.size()), 3, 3}, torch::kFloat64);
+  double* p = t.data_ptr<double>();
+  for (std::size_t i = 0; i < v.size(); ++i)
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) p[9 * i + 3 * r + c] = v[i](r, c);
+  return t.to(dtype);
+}
+
+inline Tensor toTensor(const std::vector<double>& v, torch::Dtype dtype) {
+  Tensor t = torch::empty({static_cast<long>(v.size())}, torch::kFloat64);
+  std::copy(v.begin(), v.end(), t.data_ptr<double>());
+  return t.to(dtype);
+}
+
+inline std::vector<Eigen::Vector3d> toVectors(const Tensor& t) {
+  const Tensor d = t.to(torch::kFloat64).contiguous();
+  const double* p = d.data_ptr<double>();
+  std::vector<Eigen::Vector3d> out(static_cast<std::size_t>(d.size(0)));
+  for (std::size_t i = 0; i < out.size(); ++i) out[i] = Eigen::Vector3d(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
+  return out;
+}
+
+/// Psi per point from det F and tr(F^T F), for the material's model (the paper's compressible
+/// Neo-Hookean or the decoupled form of the Cook's membrane reference).
+inline Tensor neoHookeanEnergyDensity(const Tensor& J, const Tensor& I1, const HyperelasticMaterial& material,
+                                      const std::string& model) {
+  const Tensor lnJ = torch::log(J);
+  const double mu = material.mu();
+  if (model == "neo_hookean_decoupled")
+    return 0.25 * material.kappa() * (J * J - 1 - 2 * lnJ) + 0.5 * mu * (torch::pow(J, -2.0 / 3.0) * I1 - 3);
+  return 0.5 * mu * (I1 - 3) - mu * lnJ + 0.5 * material.lambda() * lnJ * lnJ;
+}
+
+inline std::vector<Tensor> snapshot(const std::vector<Tensor>& parameters) {
+  std::vector<Tensor> s;
+  for (const Tensor& p : parameters) s.push_back(p.detach().clone());
+  return s;
+}
+
+inline void restore(const std::vector<Tensor>& parameters, const std::vector<Tensor>& saved) {
+  torch::NoGradGuard guard;
+  for (std::size_t i = 0; i < parameters.size(); ++i) parameters[i].copy_(saved[i]);
+}
+
+/// Torch's CPU matmuls go to the system BLAS (OpenBLAS on Debian), whose own thread pool ignores
+/// at::set_num_threads; its spinning workers made a T-bar step 1.8x slower on a loaded 2-core
+/// machine. Set through dlsym so a build against another BLAS still links.
+inline void setBlasThreads(int threads) {
+  using SetThreads = void (*)(int);
+  if (auto f = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) f(threads);
+}
+
+/// Every Adam step allocates and frees the same few-MB tensors; glibc serves blocks above its
+/// mmap threshold with fresh zeroed pages each time (page faults were ~15 % of a step). Keeping
+/// them in the heap halves the step time at T-bar sizes. Process-wide, set once.
+inline void keepLargeAllocationsInHeap() {
+  static const bool done = [] {
+    mallopt(M_MMAP_THRESHOLD, 512 * 1024 * 1024);
+    mallopt(M_TRIM_THRESHOLD, 1024 * 1024 * 1024);
+    return true;
+  }();
+  (void)done;
+}
+
+}  // namespace demnerf::mechanics::torch_support
