@@ -39,3 +39,32 @@ TEST(LatestWinsWorker, DestroysCleanlyWithWorkPending) {
   }
   EXPECT_LE(runs.load(), 2);
 }
+
+TEST(LatestWinsWorker, AStreamFasterThanTheLeastIntervalIsThinnedToIt) {
+  using Clock = std::chrono::steady_clock;
+  std::mutex mutex;
+  std::vector<std::pair<int, Clock::time_point>> starts;
+  dem_nerf::LatestWinsWorker<int> worker(
+      [&](const int& job) {
+        std::lock_guard<std::mutex> lock(mutex);
+        starts.emplace_back(job, Clock::now());
+      },
+      std::chrono::milliseconds(100));
+  // 50 jobs at ~500 Hz: instant work, so without the interval every one would run.
+  const Clock::time_point first = Clock::now();
+  for (int i = 0; i < 50; ++i) {
+    worker.submit(i);
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  const auto stream = Clock::now() - first;  // ~0.1 s, longer on a loaded machine
+  worker.waitIdle();
+  std::this_thread::sleep_for(std::chrono::milliseconds(150));  // a job may still follow the pause
+  worker.waitIdle();
+  std::lock_guard<std::mutex> lock(mutex);
+  ASSERT_GE(starts.size(), 2u);
+  const auto allowed = static_cast<std::size_t>(stream / std::chrono::milliseconds(100)) + 2;
+  EXPECT_LE(starts.size(), allowed) << "a 100 ms interval allows one start per 100 ms of the stream, plus the last";
+  EXPECT_EQ(starts.back().first, 49) << "the newest job is the one that runs last";
+  for (std::size_t i = 1; i < starts.size(); ++i)
+    EXPECT_GE(starts[i].second - starts[i - 1].second, std::chrono::milliseconds(99));
+}

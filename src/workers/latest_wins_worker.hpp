@@ -1,8 +1,11 @@
 #pragma once
 // Runs jobs one at a time on its own thread; a job submitted while another runs replaces any
 // job still waiting (latest wins), so a burst of wrench messages costs one solve, not fifty,
-// and ROS callbacks never block on the work.
+// and ROS callbacks never block on the work. An optional least interval between job starts
+// keeps a fast stream (a 100 Hz wrench topic with millisecond solves) from taking a whole core
+// from other work on the machine (the NeRF training beside it).
 
+#include <chrono>
 #include <condition_variable>
 #include <functional>
 #include <mutex>
@@ -14,7 +17,9 @@ namespace dem_nerf {
 template <typename Job>
 class LatestWinsWorker {
  public:
-  explicit LatestWinsWorker(std::function<void(const Job&)> work) : work_(std::move(work)), thread_([this] { run(); }) {}
+  explicit LatestWinsWorker(std::function<void(const Job&)> work,
+                            std::chrono::steady_clock::duration min_interval = std::chrono::steady_clock::duration::zero())
+      : work_(std::move(work)), min_interval_(min_interval), thread_([this] { run(); }) {}
 
   ~LatestWinsWorker() {
     {
@@ -61,15 +66,20 @@ class LatestWinsWorker {
       Job job = std::move(*waiting_);
       waiting_.reset();
       running_ = true;
+      const auto started = std::chrono::steady_clock::now();
       lock.unlock();
       work_(job);  // the work reports its own errors; nothing escapes into this thread
       lock.lock();
       running_ = false;
       if (!waiting_) idle_.notify_all();
+      // Jobs submitted during this pause coalesce into the one that runs after it.
+      if (min_interval_ > std::chrono::steady_clock::duration::zero())
+        wake_.wait_until(lock, started + min_interval_, [this] { return stopping_; });
     }
   }
 
   std::function<void(const Job&)> work_;
+  std::chrono::steady_clock::duration min_interval_;
   mutable std::mutex mutex_;
   std::condition_variable wake_, idle_;
   std::optional<Job> waiting_;

@@ -96,7 +96,11 @@ DemNode::DemNode(ros::NodeHandle node, ros::NodeHandle private_node, const DemNo
   rendered_publisher_ = private_transport.advertise(
       "rendered", 1, [this](const image_transport::SingleSubscriberPublisher& peer) { onRenderSubscriber(peer); });
   render_worker_ = std::make_unique<LatestWinsWorker<RenderJob>>([this](const RenderJob& job) { runRender(job); });
-  worker_ = std::make_unique<LatestWinsWorker<SolveJob>>([this](const SolveJob& job) { runSolve(job); });
+  const auto min_interval = config_.max_solve_rate > 0
+                                ? std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                      std::chrono::duration<double>(1.0 / config_.max_solve_rate))
+                                : std::chrono::steady_clock::duration::zero();
+  worker_ = std::make_unique<LatestWinsWorker<SolveJob>>([this](const SolveJob& job) { runSolve(job); }, min_interval);
 
   if (config_.scenario.empty()) {
     reportError("no ~scenario set: give a scenario YAML with the material (see config/scenarios/)");

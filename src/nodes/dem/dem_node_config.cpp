@@ -24,6 +24,7 @@ DemNodeConfig DemNodeConfig::fromParameters(const ros::NodeHandle& node) {
   readCount(node, "fem_order", config.fem_order, 1);
   if (config.fem_order > 2) throw demnerf::core::Error("parameter ~fem_order must be 1 or 2");
   readCount(node, "dem_iterations", config.dem_iterations, 0);
+  readNumber(node, "max_solve_rate", config.max_solve_rate, 0.0);
   node.param("parametric", config.parametric, config.parametric);
   node.param("load_range", config.load_range, config.load_range);
   if (config.load_range.size() != 2 || !(config.load_range[0] < config.load_range[1]) || config.load_range[0] > 1.0 ||

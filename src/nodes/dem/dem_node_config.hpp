@@ -24,6 +24,9 @@ struct DemNodeConfig {
   int threads = 0;                 ///< torch threads (0: all cores)
   int fem_order = 1;               ///< FEM baseline: 1 linear tets (seconds), 2 quadratic (minutes on 10k particles)
   int dem_iterations = 1500;       ///< DEM Adam iterations per load step
+  /// Hz: solves start at most this often (0: no limit). Wrenches arriving in between coalesce,
+  /// so a 100 Hz stream of fast solves cannot take a core from the NeRF training beside it.
+  double max_solve_rate = 2.0;
   /// DEM parametric mode: trained once over load scales in load_range (relative to the first
   /// load it solves); later loads that only scale it within the range are answered at once.
   bool parametric = false;
