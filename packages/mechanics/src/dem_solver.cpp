@@ -18,6 +18,7 @@
 #include "demnerf/mechanics/material.hpp"
 #include "demnerf/mechanics/output_layer_newton.hpp"
 #include "demnerf/mechanics/particle_quadrature.hpp"
+#include "adaptive_load_steps.hpp"
 #include "torch_solver_support.hpp"
 
 namespace demnerf::mechanics {
@@ -262,6 +263,19 @@ struct DemSolver::Impl {
     torch::NoGradGuard guard;
     auto [u, unused] = displacement(xv, lift_v, false, scale);
     return u.norm(2, 1).max().item<double>();
+  }
+
+  // The load fractions predict()/evaluate() may answer: the trained range (parametric) or the
+  // trained fraction.
+  void checkLoadScale(double load_scale) const {
+    if (!std::isfinite(load_scale)) throw core::Error("DEM predict: the load scale is not finite");
+    if (config.parametric && (load_scale < config.load_range_min - 1e-12 || load_scale > config.load_range_max + 1e-12))
+      throw core::Error("DEM predict: load scale " + std::to_string(load_scale) + " lies outside the trained range [" +
+                        std::to_string(config.load_range_min) + ", " + std::to_string(config.load_range_max) +
+                        "]; retrain with a wider load range");
+    if (!config.parametric && std::abs(load_scale - fraction) > 1e-12)
+      throw core::Error("DEM predict: this network was trained for load fraction " + std::to_string(fraction) +
+                        " only; train with parametric = true to predict other loads");
   }
 
   bool newtonEnabled() const {
@@ -597,10 +611,6 @@ DemReport DemSolver::solve() {
   Impl& m = *impl_;
   const auto start = std::chrono::steady_clock::now();
   DemReport report;
-  const int steps = std::max(1, m.scenario.load_steps);
-  const double nominal = 1.0 / steps;
-  double done = 0.0, step = nominal;
-  int halvings = 0;
   if (m.config.parametric) {
     const auto saved = m.snapshot();
     if (!m.trainParametric(report.iterations)) {
@@ -610,29 +620,19 @@ DemReport DemSolver::solve() {
                         "] inverted particles (det F <= 0) or diverged (NaN); narrow the range or lower the learning rate");
     }
     report.load_steps = 1;
-    done = 1.0;
-  }
-  // Warm start: a network trained for this scenario already represents fraction 1.
-  while (done < 1.0 - 1e-12) {
-    const double target = std::min(1.0, done + step);
-    const auto saved = m.snapshot();
-    if (m.train(target, report.iterations, report)) {
-      done = target;
-      ++report.load_steps;
-      step = std::min(nominal, 2.0 * step);
-    } else {
-      m.restore(saved);
-      m.fraction = done;
-      step *= 0.5;
-      if (++halvings > m.config.max_halvings) {
-        std::ostringstream msg;
-        msg << "DEM: the solve inverted particles (det F <= 0) or diverged (NaN) at load fraction " << target
-            << " even after " << m.config.max_halvings << " load-step halvings; the network keeps the state at fraction "
-            << done << ". Use more load_steps or a smaller load.";
-        throw core::Error(msg.str());
-      }
-      if (m.config.verbose) std::cerr << "dem: retrying with load step " << step << "\n";
-    }
+  } else {
+    std::vector<Tensor> saved;
+    report.load_steps = runAdaptiveLoadSteps(
+        m.scenario.load_steps, m.config.max_halvings,
+        [&](double target) {
+          saved = m.snapshot();
+          return m.train(target, report.iterations, report);
+        },
+        [&](double done) {
+          m.restore(saved);
+          m.fraction = done;
+        },
+        "DEM", "Use more load_steps or a smaller load.", m.config.verbose);
   }
   m.fraction = 1.0;
   report.output_scale = m.out_scale;
@@ -655,14 +655,7 @@ std::vector<Eigen::Vector3d> DemSolver::predict(const std::vector<Eigen::Vector3
 
 std::vector<Eigen::Vector3d> DemSolver::predict(const std::vector<Eigen::Vector3d>& points, double load_scale) const {
   const Impl& m = *impl_;
-  if (!std::isfinite(load_scale)) throw core::Error("DEM predict: the load scale is not finite");
-  if (m.config.parametric && (load_scale < m.config.load_range_min - 1e-12 || load_scale > m.config.load_range_max + 1e-12))
-    throw core::Error("DEM predict: load scale " + std::to_string(load_scale) + " lies outside the trained range [" +
-                      std::to_string(m.config.load_range_min) + ", " + std::to_string(m.config.load_range_max) +
-                      "]; retrain with a wider load range");
-  if (!m.config.parametric && std::abs(load_scale - m.fraction) > 1e-12)
-    throw core::Error("DEM predict: this network was trained for load fraction " + std::to_string(m.fraction) +
-                      " only; train with parametric = true to predict other loads");
+  m.checkLoadScale(load_scale);
   if (points.empty()) return {};
   torch::NoGradGuard guard;
   const Tensor x = toTensor(points, m.dtype);
@@ -685,16 +678,19 @@ core::ResultField DemSolver::result() const { return evaluate(impl_->cloud.posit
 
 core::ResultField DemSolver::evaluate(const std::vector<Eigen::Vector3d>& points, double load_scale) const {
   const Impl& m = *impl_;
+  m.checkLoadScale(load_scale);
   torch::NoGradGuard guard;
   core::ResultField r;
   r.positions = points;
-  r.displacements = predict(points, load_scale);  // checks the load scale
   if (points.empty()) return r;
   const Tensor x = toTensor(points, m.dtype);
   const DirichletLift lift = dirichletLift(m.scenario, points, m.length);
   const Tensor parts[4] = {toTensor(lift.g, m.dtype), toTensor(lift.grad_g, m.dtype), toTensor(lift.D, m.dtype),
                            toTensor(lift.grad_D, m.dtype)};
-  const Tensor gu = m.displacement(x, parts, true, load_scale).second.to(torch::kFloat64).contiguous();
+  // One pass gives the displacement and its gradient.
+  const auto [u, grad_u] = m.displacement(x, parts, true, load_scale);
+  r.displacements = torch_support::toVectors(u);
+  const Tensor gu = grad_u.to(torch::kFloat64).contiguous();
   const double* g = gu.data_ptr<double>();
   r.von_mises.resize(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) {

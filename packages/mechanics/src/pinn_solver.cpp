@@ -14,6 +14,7 @@
 #include "demnerf/core/error.hpp"
 #include "demnerf/mechanics/boundary_conditions.hpp"
 #include "demnerf/mechanics/material.hpp"
+#include "adaptive_load_steps.hpp"
 #include "torch_solver_support.hpp"
 
 namespace demnerf::mechanics {
@@ -466,34 +467,24 @@ PinnReport PinnSolver::solve() {
   Impl& m = *impl_;
   const auto start = std::chrono::steady_clock::now();
   PinnReport report;
-  const int steps = std::max(1, m.config.load_steps > 0 ? m.config.load_steps : m.scenario.load_steps);
-  const double nominal = 1.0 / steps;
-  double done = 0.0, step = nominal;
-  int halvings = 0;
-  while (done < 1.0 - 1e-12) {
-    const double target = std::min(1.0, done + step);
-    const auto saved = m.snapshot();
-    const double saved_out = m.out_scale, saved_stress = m.stress_scale;
-    if (m.train(target, report)) {
-      done = target;
-      m.fraction = done;
-      ++report.load_steps;
-      step = std::min(nominal, 2.0 * step);
-    } else {
-      m.restore(saved);
-      m.out_scale = saved_out;
-      m.stress_scale = saved_stress;
-      step *= 0.5;
-      if (++halvings > m.config.max_halvings) {
-        std::ostringstream msg;
-        msg << "PINN: the solve inverted particles (det F <= 0) or diverged (NaN) at load fraction " << target
-            << " even after " << m.config.max_halvings << " load-step halvings; the network keeps the state at fraction "
-            << done << ". Use more load_steps, a smaller adam_learning_rate or a smaller load.";
-        throw core::Error(msg.str());
-      }
-      if (m.config.verbose) std::cerr << "pinn: retrying with load step " << step << "\n";
-    }
-  }
+  std::vector<Tensor> saved;
+  double saved_out = 0.0, saved_stress = 0.0;
+  report.load_steps = runAdaptiveLoadSteps(
+      m.config.load_steps > 0 ? m.config.load_steps : m.scenario.load_steps, m.config.max_halvings,
+      [&](double target) {
+        saved = m.snapshot();
+        saved_out = m.out_scale;
+        saved_stress = m.stress_scale;
+        if (!m.train(target, report)) return false;
+        m.fraction = target;
+        return true;
+      },
+      [&](double) {
+        m.restore(saved);
+        m.out_scale = saved_out;
+        m.stress_scale = saved_stress;
+      },
+      "PINN", "Use more load_steps, a smaller adam_learning_rate or a smaller load.", m.config.verbose);
   m.fraction = 1.0;
   {
     torch::NoGradGuard guard;
