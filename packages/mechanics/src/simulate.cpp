@@ -55,6 +55,12 @@ SimulationOutcome simulate(const core::ParticleCloud& cloud, const core::Scenari
       } else {
         mesh = voxelMeshFromParticles(cloud, voxel);
       }
+      // Specks of a reconstructed body that touch no fixture would make the stiffness singular.
+      mesh = keepHeldPieces(mesh, [&](const Eigen::Vector3d& x) {
+        for (const core::Fixture& f : scenario.fixtures)
+          if (f.region.contains(x)) return true;
+        return false;
+      });
       out.mesh_nodes = static_cast<int>(mesh.nodes.size());
       out.mesh_elements = static_cast<int>(mesh.elements.size());
       FemSolver fem(std::move(mesh), scenario, options.fem);

@@ -135,4 +135,34 @@ Eigen::Vector4d barycentric(const std::array<Eigen::Vector3d, 4>& c, const Eigen
   return Eigen::Vector4d(1.0 - l.sum(), l(0), l(1), l(2));
 }
 
+TetMesh keepHeldPieces(const TetMesh& mesh, const std::function<bool(const Eigen::Vector3d&)>& held) {
+  // Union-find over nodes: every element joins its nodes into one piece.
+  std::vector<int> parent(mesh.nodes.size());
+  for (std::size_t i = 0; i < parent.size(); ++i) parent[i] = static_cast<int>(i);
+  const std::function<int(int)> root = [&](int i) { return parent[i] == i ? i : parent[i] = root(parent[i]); };
+  const int per = mesh.nodesPerElement();
+  for (const auto& e : mesh.elements)
+    for (int k = 1; k < per; ++k) parent[root(e[k])] = root(e[0]);
+  std::vector<char> piece_held(mesh.nodes.size(), 0);
+  for (std::size_t i = 0; i < mesh.nodes.size(); ++i)
+    if (held(mesh.nodes[i])) piece_held[root(static_cast<int>(i))] = 1;
+  TetMesh kept;
+  kept.order = mesh.order;
+  std::vector<int> renumber(mesh.nodes.size(), -1);
+  for (const auto& e : mesh.elements) {
+    if (!piece_held[root(e[0])]) continue;
+    std::array<int, 10> element = e;
+    for (int k = 0; k < per; ++k) {
+      int& n = renumber[e[k]];
+      if (n < 0) {
+        n = static_cast<int>(kept.nodes.size());
+        kept.nodes.push_back(mesh.nodes[e[k]]);
+      }
+      element[k] = n;
+    }
+    kept.elements.push_back(element);
+  }
+  return kept.elements.empty() ? mesh : kept;
+}
+
 }  // namespace demnerf::mechanics

@@ -264,3 +264,22 @@ TEST(Fem, BadInputIsReported) {
 }
 
 }  // namespace
+
+TEST(TetMesh, PiecesTouchingNoFixtureAreDropped) {
+  // Two separate boxes; only the one at the origin is held.
+  dm::TetMesh a = dm::structuredBoxMesh(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 1, 1), Eigen::Vector3i(2, 2, 2), 1);
+  const dm::TetMesh b = dm::structuredBoxMesh(Eigen::Vector3d(5, 0, 0), Eigen::Vector3d(6, 1, 1), Eigen::Vector3i(1, 1, 1), 1);
+  const std::size_t a_nodes = a.nodes.size(), a_elements = a.elements.size();
+  const int offset = static_cast<int>(a.nodes.size());
+  a.nodes.insert(a.nodes.end(), b.nodes.begin(), b.nodes.end());
+  for (auto e : b.elements) {
+    for (int k = 0; k < 4; ++k) e[k] += offset;
+    a.elements.push_back(e);
+  }
+  const dm::TetMesh kept = dm::keepHeldPieces(a, [](const Eigen::Vector3d& x) { return x.x() < 1e-9; });
+  EXPECT_EQ(kept.nodes.size(), a_nodes);
+  EXPECT_EQ(kept.elements.size(), a_elements);
+  for (const auto& x : kept.nodes) EXPECT_LT(x.x(), 2.0);
+  // Nothing held: unchanged, the solver reports the missing support.
+  EXPECT_EQ(dm::keepHeldPieces(a, [](const Eigen::Vector3d&) { return false; }).elements.size(), a.elements.size());
+}
