@@ -6,6 +6,7 @@
 //   reference=RESULT.ply (default bench/data/tbar_twist_fem_reference.ply, the converged FEM)
 //   fem_cache=PATH seeds=N double=0|1 verbose=0|1 activation=tanh|softplus|...
 //   newton=0|1 newton_every=N newton_its=N (output-layer Newton, DemConfig::output_newton)
+//   grid=CELL_M grid_degree=1|2|3 grid_band=CELLS dem_steps=N (feature grid, DemConfig::grid_cell)
 // Prints one markdown row per seed and the median time / error.
 
 #include <algorithm>
@@ -67,6 +68,10 @@ int main(int argc, char** argv) {
   config.output_newton = num("newton", config.output_newton ? 1 : 0) != 0;
   config.newton_every = static_cast<int>(num("newton_every", config.newton_every));
   config.newton_iterations = static_cast<int>(num("newton_its", config.newton_iterations));
+  config.grid_cell = num("grid", config.grid_cell);
+  config.grid_degree = static_cast<int>(num("grid_degree", config.grid_degree));
+  config.grid_refine_band = num("grid_band", config.grid_refine_band);
+  config.load_steps = static_cast<int>(num("dem_steps", config.load_steps));
   if (a.count("activation")) config.activation = a["activation"];
   if (a.count("boundary") && a["boundary"] == "penalty") config.boundary = dm::DemConfig::Boundary::kPenalty;
   const int seeds = static_cast<int>(num("seeds", 3));

@@ -27,6 +27,11 @@ nlohmann::json toJson(const DemConfig& c) {
           {"output_newton", c.output_newton},
           {"newton_every", c.newton_every},
           {"newton_iterations", c.newton_iterations},
+          {"grid_cell", c.grid_cell},
+          {"grid_degree", c.grid_degree},
+          {"grid_newton_iterations", c.grid_newton_iterations},
+          {"grid_refine_band", c.grid_refine_band},
+          {"load_steps", c.load_steps},
           {"jitter", c.jitter},
           {"jitter_band", c.jitter_band},
           {"lbfgs_iterations", c.lbfgs_iterations},
@@ -59,6 +64,12 @@ DemConfig configFromJson(const nlohmann::json& j) {
   c.output_newton = j.at("output_newton");
   c.newton_every = j.at("newton_every");
   c.newton_iterations = j.at("newton_iterations");
+  // Models saved before the feature grid existed have none.
+  c.grid_cell = j.value("grid_cell", 0.0);
+  c.grid_degree = j.value("grid_degree", 2);
+  c.grid_newton_iterations = j.value("grid_newton_iterations", 30);
+  c.grid_refine_band = j.value("grid_refine_band", 1.0);
+  c.load_steps = j.value("load_steps", 0);
   c.jitter = j.at("jitter");
   c.jitter_band = j.at("jitter_band");
   c.lbfgs_iterations = j.at("lbfgs_iterations");
@@ -117,10 +128,12 @@ void saveDemModel(const DemSolver& solver, const std::string& path) {
     putDoubles(payload, st.weights[l].data(), st.weights[l].size());  // column-major
     putDoubles(payload, st.biases[l].data(), st.biases[l].size());
   }
+  putDoubles(payload, st.grid_coefficients.data(), st.grid_coefficients.size());  // column-major
   const nlohmann::json header = {{"config", toJson(st.config)},
                                  {"scenario_yaml", core::toYaml(st.scenario)},
                                  {"particles", n},
                                  {"layers", layers},
+                                 {"grid_nodes", st.grid_coefficients.rows()},
                                  {"output_scale", st.output_scale},
                                  {"energy_scale", st.energy_scale},
                                  {"fraction", st.fraction},
@@ -138,6 +151,7 @@ DemSolver loadDemModel(const std::string& path) {
   DemState st;
   std::vector<std::pair<long, long>> shapes;
   std::size_t n = 0;
+  long grid_nodes = 0;
   try {
     const nlohmann::json header = nlohmann::json::parse(container.header);
     st.config = configFromJson(header.at("config"));
@@ -148,6 +162,7 @@ DemSolver loadDemModel(const std::string& path) {
     st.energy_scale = header.at("energy_scale");
     st.fraction = header.at("fraction");
     st.rescaled = header.at("rescaled");
+    grid_nodes = header.value("grid_nodes", 0L);
   } catch (const nlohmann::json::exception& e) {
     throw core::Error(where + " is corrupt: its header is not what save wrote (" + e.what() + ")");
   }
@@ -168,6 +183,10 @@ DemSolver loadDemModel(const std::string& path) {
     reader.get(st.weights.back().data(), st.weights.back().size());
     reader.get(st.biases.back().data(), st.biases.back().size());
   }
+  if (grid_nodes < 0 || grid_nodes > 4000000)
+    throw core::Error(where + " is corrupt: a feature grid of " + std::to_string(grid_nodes) + " nodes");
+  st.grid_coefficients.resize(grid_nodes, grid_nodes > 0 ? 3 : 0);
+  reader.get(st.grid_coefficients.data(), st.grid_coefficients.size());
   reader.expectEnd();
   return DemSolver::fromState(st);
 }

@@ -14,7 +14,9 @@
 
 #include "demnerf/core/error.hpp"
 #include "demnerf/mechanics/boundary_conditions.hpp"
+#include "demnerf/mechanics/bspline_grid.hpp"
 #include "demnerf/mechanics/dirichlet_lift.hpp"
+#include "demnerf/mechanics/grid_field_newton.hpp"
 #include "demnerf/mechanics/material.hpp"
 #include "demnerf/mechanics/output_layer_newton.hpp"
 #include "demnerf/mechanics/particle_quadrature.hpp"
@@ -71,6 +73,19 @@ struct DemSolver::Impl {
   std::vector<Eigen::Vector3d> last_good_positions;
   std::function<void(int)> progress;
   int progress_every = 0;
+  // Feature grid (DemConfig::grid_cell): the basis, its coefficients (a parameter, in units of the
+  // output scale like the MLP's output) and the supports of the fixed point sets.
+  struct GridSupport {
+    Tensor nodes, N, dN;  // [n, S] node indices, [n, S] values, [n, S, 3] X-gradients
+  };
+  std::unique_ptr<BsplineGrid> grid;
+  Tensor grid_coef;
+  GridSupport grid_v, grid_s;
+  // The grid Newton's fixed quadrature (particles near fixtures split, DemConfig::grid_refine_band).
+  std::vector<Eigen::Vector3d> gq_points;
+  std::vector<double> gq_volume;
+  DirichletLift gq_lift;
+  Tensor gq_x, gq_lift_t[4];
 
   void reportProgress(int iterations) const {
     if (progress && progress_every > 0 && iterations % progress_every == 0) progress(iterations);
@@ -82,7 +97,31 @@ struct DemSolver::Impl {
       p.push_back(weights[l]);
       p.push_back(biases[l]);
     }
+    if (grid) p.push_back(grid_coef);
     return p;
+  }
+
+  GridSupport gridSupport(const std::vector<Eigen::Vector3d>& points) const {
+    const long n = static_cast<long>(points.size()), S = grid->supportSize();
+    GridSupport sp{torch::empty({n, S}, torch::kLong), torch::empty({n, S}, torch::kFloat64),
+                   torch::empty({n, S, 3}, torch::kFloat64)};
+    long* nodes = sp.nodes.data_ptr<long>();
+    double* N = sp.N.data_ptr<double>();
+    auto* dN = reinterpret_cast<Eigen::Vector3d*>(sp.dN.data_ptr<double>());
+    for (long p = 0; p < n; ++p) grid->evaluate(points[p], nodes + p * S, N + p * S, dN + p * S);
+    sp.N = sp.N.to(dtype);
+    sp.dN = sp.dN.to(dtype);
+    return sp;
+  }
+  GridSupport gridSupport(const Tensor& x) const { return gridSupport(torch_support::toVectors(x)); }
+
+  // The grid's share N(X) C at the points of a support and, with `gradient`, its X-gradient
+  // [n, i, k] = d/dX_k of component i.
+  std::pair<Tensor, Tensor> gridField(const GridSupport& sp, bool gradient) const {
+    const long n = sp.N.size(0), S = sp.N.size(1);
+    const Tensor coef = grid_coef.index_select(0, sp.nodes.reshape({-1})).reshape({n, S, 3});
+    const Tensor z = (sp.N.unsqueeze(2) * coef).sum(1);
+    return {z, gradient ? torch::matmul(coef.transpose(1, 2), sp.dN) : Tensor()};
   }
 
   Tensor normalise(const Tensor& x) const {
@@ -133,8 +172,16 @@ struct DemSolver::Impl {
   }
 
   // u and (optionally) Grad u [n, i, k] for a subset with its lift tensors (g, grad_g, D, grad_D).
-  std::pair<Tensor, Tensor> displacement(const Tensor& x, const Tensor* lift, bool gradient, double scale) const {
+  // The feature grid's share comes from `support` when given (the fixed point sets), else from x;
+  // `with_grid` false leaves it out (the offset of the grid's Newton solve).
+  std::pair<Tensor, Tensor> displacement(const Tensor& x, const Tensor* lift, bool gradient, double scale,
+                                         const GridSupport* support = nullptr, bool with_grid = true) const {
     auto [z, dz] = network(x, gradient, scale);
+    if (grid && with_grid) {
+      const auto [zg, dzg] = gridField(support ? *support : gridSupport(x), gradient);
+      z = z + zg;
+      if (gradient) dz = dz + dzg.transpose(1, 2);
+    }
     // Parametric: u = s (g + D z(X, s)), so the rest state at s = 0 holds exactly and z stays O(1)
     // over the whole load range.
     const double amplitude = config.parametric ? out_scale * scale : out_scale;
@@ -157,6 +204,7 @@ struct DemSolver::Impl {
     Tensor x = xv;
     Tensor lift_j[4];
     const Tensor* lift = lift_v;
+    const GridSupport* support = grid ? &grid_v : nullptr;
     if (jitter && n_band > 0) {
       // Stochastic quadrature in the band next to the fixtures: every Adam step moves each of
       // those quadrature points within its cell (see DemConfig::jitter). The lift of the moved
@@ -194,14 +242,15 @@ struct DemSolver::Impl {
         for (int k = 0; k < 4; ++k) lift_j[k] = torch::cat({lift_v[k].narrow(0, 0, nf), lb[k].to(dtype)});
         lift = lift_j;
       }
+      support = nullptr;  // the jittered points' grid support is computed from x
     }
-    auto [uv, gu] = displacement(x, lift, true, scale);
+    auto [uv, gu] = displacement(x, lift, true, scale, support);
     const Tensor F = gu + eye3;
     Tensor J;
     const Tensor psi = strainEnergy(F, J);
     Tensor pi = (psi * vol).sum() - scale * (body * uv).sum();
     if (xs.size(0) > 0) {
-      auto [us, unused] = displacement(xs, lift_s, false, scale);
+      auto [us, unused] = displacement(xs, lift_s, false, scale, grid ? &grid_s : nullptr);
       pi = pi - scale * (traction_area * us).sum();
     }
     Tensor total = pi / energy_scale;
@@ -336,6 +385,79 @@ struct DemSolver::Impl {
                 << (outcome.converged ? "" : " (not converged)") << ", output scale " << out_scale << " m\n";
   }
 
+  // Newton on the feature grid's coefficients with the MLP frozen (grid_field_newton.hpp), on the
+  // grid quadrature: the best field in MLP + grid with the MLP's share fixed.
+  void solveGrid(double scale) {
+    torch::NoGradGuard guard;
+    GridFieldProblem pb;
+    pb.points = gq_points;
+    pb.volume = gq_volume;
+    pb.D = gq_lift.D;
+    pb.grad_D = gq_lift.grad_D;
+    for (double v : gq_volume) pb.body.push_back(scale * v * scenario.body_force);
+    // Offset: everything but the grid (the lift and the MLP's share).
+    const auto [u0, gu0] = displacement(gq_x, gq_lift_t, true, scale, nullptr, false);
+    pb.offset = torch_support::toVectors(u0);
+    const Tensor g = gu0.to(torch::kFloat64).contiguous();
+    const double* pg = g.data_ptr<double>();
+    pb.grad_offset.resize(gq_points.size());
+    for (std::size_t p = 0; p < gq_points.size(); ++p)
+      pb.grad_offset[p] = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(pg + 9 * p);
+    if (xs.size(0) > 0) {
+      pb.surface_points = torch_support::toVectors(xs);
+      pb.surface_offset = torch_support::toVectors(displacement(xs, lift_s, false, scale, nullptr, false).first);
+      pb.surface_D = torch_support::toVectors(lift_s[2]);
+      pb.surface_force = torch_support::toVectors(traction_area * scale);
+    }
+    // The Newton unknowns are in metres: c C.
+    Eigen::MatrixXd C = toEigen(grid_coef.detach()) * out_scale;
+    GridNewtonConfig newton;
+    newton.max_iterations = config.grid_newton_iterations;
+    const GridNewtonOutcome outcome = minimiseGridField(pb, *material, *grid, C, newton);
+    C /= out_scale;
+    const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> rows = C;
+    grid_coef.copy_(torch::from_blob(const_cast<double*>(rows.data()), {rows.rows(), 3}, torch::kFloat64));
+    if (config.verbose)
+      std::cerr << "dem: grid Newton " << outcome.iterations << " its, energy " << outcome.energy << ", min J "
+                << outcome.min_J << (outcome.converged ? "" : " (not converged)") << "\n";
+  }
+
+  // The grid Newton's quadrature: the particles' own volumes (midpoint rule; surface particles
+  // carry none), with interior particles near a fixture split into 2 x 2 x 2 sub-points of their
+  // cube. Not energyWeights(): its surface shares weight the surface's strain by a quarter cell,
+  // which overstates the energy of a twisted section, where the strain peaks at the surface (T-bar:
+  // 6 % rel. L2 with the shares, 1.4 % without). A grid of cells a few particle spacings wide
+  // cannot open the surface jump those shares guard the MLP against.
+  void buildGridQuadrature() {
+    const std::vector<double>& weight = cloud.volumes;
+    gq_points.clear();
+    gq_volume.clear();
+    const double band = config.grid_refine_band * config.grid_cell;
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      if (!(weight[i] > 0)) continue;
+      const Eigen::Vector3d& x = cloud.positions[i];
+      double near = std::numeric_limits<double>::infinity();
+      for (const core::Fixture& f : scenario.fixtures) near = std::min(near, regionDistance(f.region, x));
+      for (const core::Load& l : scenario.loads) near = std::min(near, regionDistance(l.region, x));
+      if (cloud.volumes[i] > 0 && !cloud.isSurface(i) && near <= band) {
+        const double quarter = 0.25 * std::cbrt(cloud.volumes[i]);
+        for (int c = 0; c < 8; ++c) {
+          gq_points.push_back(x + quarter * Eigen::Vector3d(c & 1 ? 1 : -1, c & 2 ? 1 : -1, c & 4 ? 1 : -1));
+          gq_volume.push_back(weight[i] / 8);
+        }
+      } else {
+        gq_points.push_back(x);
+        gq_volume.push_back(weight[i]);
+      }
+    }
+    gq_lift = dirichletLift(scenario, gq_points, length);
+    gq_x = toTensor(gq_points, dtype);
+    gq_lift_t[0] = toTensor(gq_lift.g, dtype);
+    gq_lift_t[1] = toTensor(gq_lift.grad_g, dtype);
+    gq_lift_t[2] = toTensor(gq_lift.D, dtype);
+    gq_lift_t[3] = toTensor(gq_lift.grad_D, dtype);
+  }
+
   // Parametric mode: one Adam run over the whole load range. Each step draws
   // parametric_samples load fractions (stratified over the range) and minimises the sum of their
   // potential energies, each divided by its own scale (energy grows with the load squared), so
@@ -383,13 +505,14 @@ struct DemSolver::Impl {
     fraction = scale;  // what predict() shows from a progress callback
     const bool newton = newtonEnabled();
     if (newton) solveOutputLayer(scale);
+    if (grid) solveGrid(scale);
     if (config.adam_iterations > 0) {
       torch::optim::Adam adam(params, torch::optim::AdamOptions(config.adam_learning_rate));
       const int n = config.adam_iterations;
       const double decay = std::pow(std::max(config.adam_final_rate_ratio, 1e-6), 1.0 / std::max(1, n - 1));
       double lr = config.adam_learning_rate;
       for (int it = 0; it < n; ++it) {
-        if (!newton && !rescaled && config.rescale_every > 0 && it > 0 && it % config.rescale_every == 0 &&
+        if (!newton && !grid && !rescaled && config.rescale_every > 0 && it > 0 && it % config.rescale_every == 0 &&
             it <= config.rescale_until && config.boundary == DemConfig::Boundary::kExact)
           rescaleOutput(scale);
         adam.zero_grad();
@@ -406,6 +529,7 @@ struct DemSolver::Impl {
       rescaled = true;
     }
     if (newton) solveOutputLayer(scale);
+    if (grid && config.adam_iterations > 0) solveGrid(scale);
     if (config.lbfgs_iterations > 0) {
       const auto before = snapshot();
       double e_before = 0;
@@ -475,6 +599,27 @@ DemSolver::DemSolver(core::ParticleCloud cloud, const core::Scenario& scenario, 
     throw core::Error("DEM parametric load range [" + std::to_string(config.load_range_min) + ", " +
                       std::to_string(config.load_range_max) +
                       "] must be finite, ordered and contain 1 (the scenario's own load, which result() reports)");
+  if (config.grid_cell < 0 || !std::isfinite(config.grid_cell))
+    throw core::Error("DEM grid_cell must be >= 0 (0: no feature grid)");
+  if (config.grid_cell > 0 && (config.parametric || config.boundary != DemConfig::Boundary::kExact ||
+                               config.output_newton))
+    throw core::Error(
+        "the DEM feature grid (grid_cell > 0) needs the exact boundary mode and works without parametric mode and "
+        "the output-layer Newton; turn those off or set grid_cell = 0");
+  if (config.grid_cell > 0) {
+    // The particles are the grid's quadrature: a cell of about one particle spacing has modes the
+    // particles cannot see, and Newton finds them (a twisted bar: 80 % error at 1 spacing).
+    std::vector<double> volumes;
+    for (double v : cloud.volumes)
+      if (v > 0) volumes.push_back(v);
+    std::nth_element(volumes.begin(), volumes.begin() + volumes.size() / 2, volumes.end());
+    const double spacing = volumes.empty() ? 0.0 : std::cbrt(volumes[volumes.size() / 2]);
+    if (config.grid_cell < 1.5 * spacing)
+      throw core::Error("DEM grid_cell " + std::to_string(config.grid_cell) + " m is below 1.5 particle spacings (" +
+                        std::to_string(spacing) + " m): the particles cannot integrate the grid's finer modes; use " +
+                        "about two spacings (" + std::to_string(2 * spacing) + " m) or more");
+  }
+  if (config.load_steps < 0) throw core::Error("DEM load_steps must be >= 0 (0: the scenario's)");
   m.config = config;
   m.dtype = config.double_precision ? torch::kFloat64 : torch::kFloat32;
   // One thread is fastest for product-size clouds on shared 2-core machines (notes/dem_speed.md);
@@ -511,6 +656,14 @@ DemSolver::DemSolver(core::ParticleCloud cloud, const core::Scenario& scenario, 
     m.weights.push_back(W.requires_grad_(true));
     m.biases.push_back(b.requires_grad_(true));
     in = out;
+  }
+  if (config.grid_cell > 0) {
+    m.grid = std::make_unique<BsplineGrid>(lo, hi, config.grid_cell, config.grid_degree);
+    if (m.grid->nodeCount() > 4000000)
+      throw core::Error("DEM feature grid of " + std::to_string(m.grid->nodeCount()) + " nodes: grid_cell " +
+                        std::to_string(config.grid_cell) + " m is far too fine for a body of " +
+                        std::to_string(m.length) + " m; use a cell of a few particle spacings");
+    m.grid_coef = torch::zeros({m.grid->nodeCount(), 3}, torch::TensorOptions().dtype(m.dtype)).requires_grad_(true);
   }
   setScenario(scenario);
 }
@@ -587,6 +740,11 @@ void DemSolver::setScenario(const core::Scenario& scenario) {
     m.lift_s[2] = pick(si, lift.D);
     m.lift_s[3] = pick(si, lift.grad_D);
   }
+  if (m.grid) {
+    m.grid_v = m.gridSupport(m.xv);
+    if (!si.empty()) m.grid_s = m.gridSupport(m.xs);
+    m.buildGridQuadrature();
+  }
   std::vector<long> ci(fixed.index.begin(), fixed.index.end());
   std::vector<Eigen::Vector3d> mask;
   for (const auto& k : fixed.mask) mask.push_back(k.cast<double>());
@@ -623,7 +781,7 @@ DemReport DemSolver::solve() {
   } else {
     std::vector<Tensor> saved;
     report.load_steps = runAdaptiveLoadSteps(
-        m.scenario.load_steps, m.config.max_halvings,
+        m.config.load_steps > 0 ? m.config.load_steps : m.scenario.load_steps, m.config.max_halvings,
         [&](double target) {
           saved = m.snapshot();
           return m.train(target, report.iterations, report);
@@ -730,6 +888,7 @@ DemState DemSolver::state() const {
     st.weights.push_back(toEigen(m.weights[l].detach()));
     st.biases.push_back(toEigen(m.biases[l].detach().unsqueeze(1)).col(0));
   }
+  if (m.grid) st.grid_coefficients = toEigen(m.grid_coef.detach());
   return st;
 }
 
@@ -752,6 +911,15 @@ DemSolver DemSolver::fromState(const DemState& state) {
     const Eigen::MatrixXd Wt = W.transpose();
     m.weights[l].copy_(torch::from_blob(const_cast<double*>(Wt.data()), {W.rows(), W.cols()}, torch::kFloat64));
     m.biases[l].copy_(torch::from_blob(const_cast<double*>(b.data()), {b.size()}, torch::kFloat64));
+  }
+  if (m.grid) {
+    const Eigen::MatrixXd& C = state.grid_coefficients;
+    if (C.rows() != m.grid->nodeCount() || C.cols() != 3 || !C.allFinite())
+      throw core::Error("DEM state: the feature grid needs " + std::to_string(m.grid->nodeCount()) +
+                        " x 3 finite coefficients, the state has " + std::to_string(C.rows()) + " x " +
+                        std::to_string(C.cols()));
+    const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> rows = C;
+    m.grid_coef.copy_(torch::from_blob(const_cast<double*>(rows.data()), {rows.rows(), 3}, torch::kFloat64));
   }
   if (!(state.output_scale > 0) || !(state.energy_scale > 0) || !std::isfinite(state.fraction))
     throw core::Error("DEM state: output and energy scales must be positive and the load fraction finite");

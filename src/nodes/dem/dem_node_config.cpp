@@ -24,6 +24,9 @@ DemNodeConfig DemNodeConfig::fromParameters(const ros::NodeHandle& node) {
   readCount(node, "fem_order", config.fem_order, 1);
   if (config.fem_order > 2) throw demnerf::core::Error("parameter ~fem_order must be 1 or 2");
   readCount(node, "dem_iterations", config.dem_iterations, 0);
+  readNumber(node, "dem_grid_cell", config.dem_grid_cell, 0.0);
+  // With the feature grid its Newton solve is the training: Adam only when asked for.
+  if (config.dem_grid_cell > 0 && !node.hasParam("dem_iterations")) config.dem_iterations = 0;
   readNumber(node, "max_solve_rate", config.max_solve_rate, 0.0);
   node.param("parametric", config.parametric, config.parametric);
   node.param("load_range", config.load_range, config.load_range);
@@ -37,6 +40,7 @@ demnerf::mechanics::SimulateOptions DemNodeConfig::simulateOptions() const {
   demnerf::mechanics::SimulateOptions options;
   options.voxel.order = fem_order;
   options.dem.adam_iterations = dem_iterations;
+  options.dem.grid_cell = dem_grid_cell;
   options.dem.threads = threads;
   options.dem.parametric = parametric;
   options.dem.load_range_min = load_range[0];

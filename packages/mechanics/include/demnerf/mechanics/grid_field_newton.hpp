@@ -1,0 +1,57 @@
+#pragma once
+// Newton's method on the coefficients of the DEM's B-spline feature grid.
+//
+// With the exact Dirichlet construction the DEM field is u = u_0(X) + D(X) o (N(X) C): u_0 holds
+// everything that is not the grid (the lift and the MLP's share), D the distance factor per
+// component, N the grid's basis functions and C their coefficients (one row per grid node). u and
+// Grad u are linear in C, so the potential energy restricted to C is a smooth problem whose
+// Hessian is sparse (a node couples only with nodes whose supports overlap): Newton's method with
+// a sparse Cholesky factorisation solves it in a few iterations, where Adam needs thousands of
+// steps for the same field. Eigen only: no torch in this file.
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "demnerf/mechanics/bspline_grid.hpp"
+#include "demnerf/mechanics/material.hpp"
+
+namespace demnerf::mechanics {
+
+/// The quadrature points of the energy and of the loaded surface, with the fixed part of the field.
+/// Loads are those of the current load fraction.
+struct GridFieldProblem {
+  std::vector<Eigen::Vector3d> points;       ///< volume quadrature points
+  std::vector<double> volume;                ///< their weights (m^3)
+  std::vector<Eigen::Vector3d> body;         ///< body force times volume (N)
+  std::vector<Eigen::Vector3d> offset;       ///< u_0 at the points (m)
+  std::vector<Eigen::Matrix3d> grad_offset;  ///< (i, k) = d u_0,i / d X_k
+  std::vector<Eigen::Vector3d> D;            ///< distance factor per component
+  std::vector<Eigen::Matrix3d> grad_D;       ///< (i, k) = d D_i / d X_k
+  std::vector<Eigen::Vector3d> surface_points, surface_offset, surface_D;
+  std::vector<Eigen::Vector3d> surface_force;  ///< traction times area (N)
+};
+
+struct GridNewtonConfig {
+  int max_iterations = 30;
+  /// Stops when the Newton decrement is below this fraction of max(|Pi|, strain energy).
+  double tolerance = 1e-12;
+  /// Diagonal shift relative to the mean diagonal when the Hessian is not positive definite
+  /// (far from the minimum of the nonconvex energy), multiplied by 10 until it is.
+  double initial_shift = 1e-6;
+};
+
+struct GridNewtonOutcome {
+  double energy = 0.0;   ///< potential energy at the returned coefficients (J)
+  double strain_energy = 0.0;
+  double min_J = 0.0;
+  int iterations = 0;
+  bool converged = false;
+};
+
+/// Minimises the potential energy over C (grid.nodeCount() x 3), starting from C; C only ever
+/// moves to states of lower energy with every det F > 0, so the result is never worse than the
+/// start. Nodes no quadrature point sees stay as they are.
+GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const HyperelasticMaterial& material,
+                                    const BsplineGrid& grid, Eigen::MatrixXd& C, const GridNewtonConfig& config = {});
+
+}  // namespace demnerf::mechanics
