@@ -419,7 +419,9 @@ struct DemSolver::Impl {
     grid_coef.copy_(torch::from_blob(const_cast<double*>(rows.data()), {rows.rows(), 3}, torch::kFloat64));
     if (config.verbose)
       std::cerr << "dem: grid Newton " << outcome.iterations << " its, energy " << outcome.energy << ", min J "
-                << outcome.min_J << (outcome.converged ? "" : " (not converged)") << "\n";
+                << outcome.min_J << (outcome.converged ? "" : " (not converged)") << "; assembly "
+                << outcome.assembly_seconds << " s, factorisation " << outcome.factorisation_seconds
+                << " s, line search " << outcome.line_search_seconds << " s\n";
   }
 
   // The grid Newton's quadrature: the particles' own volumes (midpoint rule; surface particles
@@ -781,7 +783,7 @@ DemReport DemSolver::solve() {
   } else {
     std::vector<Tensor> saved;
     report.load_steps = runAdaptiveLoadSteps(
-        m.config.load_steps > 0 ? m.config.load_steps : m.scenario.load_steps, m.config.max_halvings,
+        m.config.load_steps > 0 ? m.config.load_steps : m.grid ? 1 : m.scenario.load_steps, m.config.max_halvings,
         [&](double target) {
           saved = m.snapshot();
           return m.train(target, report.iterations, report);

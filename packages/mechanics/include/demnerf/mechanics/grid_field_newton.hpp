@@ -46,6 +46,7 @@ struct GridNewtonOutcome {
   double min_J = 0.0;
   int iterations = 0;
   bool converged = false;
+  double assembly_seconds = 0.0, factorisation_seconds = 0.0, line_search_seconds = 0.0;
 };
 
 /// Minimises the potential energy over C (grid.nodeCount() x 3), starting from C; C only ever
