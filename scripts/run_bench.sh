@@ -22,20 +22,24 @@ declare -A COMMANDS=(
   [geometry_tbar_extraction]="--work $OUT/extraction --resolution 192 --repeat 3"
   [mechanics_cook]=""
   [mechanics_dem]="case=uniaxial seeds=3 width=16 depth=2 iters=1000 lr=1e-2"
+  [mechanics_dem_tbar_grid]="case=tbar iters=0 grid=0.015 seeds=3"
   [mechanics_pinn]="case=uniaxial seeds=3"
   [mechanics_convergence]="case=tbar reference=$ROOT/bench/data/tbar_twist_fem_reference.ply iters=400 out=$OUT/dem_convergence_tbar"
 )
+# Entries that run another entry's binary with other arguments.
+declare -A BINARIES=([mechanics_dem_tbar_grid]=mechanics_dem)
 ORDER=(render_synth_bench geometry_sampling_bench nerf_kernels nerf_train geometry_tbar_extraction mechanics_cook mechanics_dem
-       mechanics_pinn mechanics_convergence)
+       mechanics_dem_tbar_grid mechanics_pinn mechanics_convergence)
 status=0
 for name in ${BENCH:-${ORDER[@]}}; do
-  if [ ! -x "$BIN/$name" ]; then
+  binary=${BINARIES[$name]:-$name}
+  if [ ! -x "$BIN/$binary" ]; then
     echo "== $name: not built (make bench builds it)"
     status=1
     continue
   fi
   echo "== $name ${COMMANDS[$name]:-}"
   # shellcheck disable=SC2086
-  "$BIN/$name" ${COMMANDS[$name]:-} || status=1
+  "$BIN/$binary" ${COMMANDS[$name]:-} || status=1
 done
 exit $status

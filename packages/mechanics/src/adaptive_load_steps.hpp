@@ -34,7 +34,7 @@ inline int runAdaptiveLoadSteps(int steps, int max_halvings, const std::function
     step *= 0.5;
     if (++halvings > max_halvings) {
       std::ostringstream msg;
-      msg << solver << ": the solve inverted particles (det F <= 0) or diverged (NaN) at load fraction " << target
+      msg << solver << ": the solve inverted particles (det F <= 0), diverged (NaN) or did not converge at load fraction " << target
           << " even after " << max_halvings << " load-step halvings; the network keeps the state at fraction " << done
           << ". " << advice;
       throw core::Error(msg.str());

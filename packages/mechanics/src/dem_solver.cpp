@@ -387,7 +387,9 @@ struct DemSolver::Impl {
 
   // Newton on the feature grid's coefficients with the MLP frozen (grid_field_newton.hpp), on the
   // grid quadrature: the best field in MLP + grid with the MLP's share fixed.
-  void solveGrid(double scale) {
+  // False when Newton does not converge within grid_newton_iterations (the load step then counts as
+  // failed and is halved).
+  bool solveGrid(double scale) {
     torch::NoGradGuard guard;
     GridFieldProblem pb;
     pb.points = gq_points;
@@ -422,6 +424,7 @@ struct DemSolver::Impl {
                 << outcome.min_J << (outcome.converged ? "" : " (not converged)") << "; assembly "
                 << outcome.assembly_seconds << " s, factorisation " << outcome.factorisation_seconds
                 << " s, line search " << outcome.line_search_seconds << " s\n";
+    return outcome.converged;
   }
 
   // The grid Newton's quadrature: the particles' own volumes (midpoint rule; surface particles
@@ -438,11 +441,20 @@ struct DemSolver::Impl {
     for (std::size_t i = 0; i < cloud.size(); ++i) {
       if (!(weight[i] > 0)) continue;
       const Eigen::Vector3d& x = cloud.positions[i];
-      double near = std::numeric_limits<double>::infinity();
-      for (const core::Fixture& f : scenario.fixtures) near = std::min(near, regionDistance(f.region, x));
-      for (const core::Load& l : scenario.loads) near = std::min(near, regionDistance(l.region, x));
-      if (cloud.volumes[i] > 0 && !cloud.isSurface(i) && near <= band) {
-        const double quarter = 0.25 * std::cbrt(cloud.volumes[i]);
+      const double half = 0.5 * std::cbrt(cloud.volumes[i]);
+      // Near a region's boundary: within the band outside it, or a cube that reaches out of it
+      // (deep inside a fixture the field is prescribed: no ramp to catch).
+      const auto near = [&](const core::Region& region) {
+        for (int c = 0; c < 8; ++c)
+          if (!region.contains(x + half * Eigen::Vector3d(c & 1 ? 1 : -1, c & 2 ? 1 : -1, c & 4 ? 1 : -1)))
+            return regionDistance(region, x) <= band;
+        return false;
+      };
+      bool split = false;
+      for (const core::Fixture& f : scenario.fixtures) split = split || near(f.region);
+      for (const core::Load& l : scenario.loads) split = split || near(l.region);
+      if (cloud.volumes[i] > 0 && !cloud.isSurface(i) && split) {
+        const double quarter = 0.5 * half;
         for (int c = 0; c < 8; ++c) {
           gq_points.push_back(x + quarter * Eigen::Vector3d(c & 1 ? 1 : -1, c & 2 ? 1 : -1, c & 4 ? 1 : -1));
           gq_volume.push_back(weight[i] / 8);
@@ -507,7 +519,7 @@ struct DemSolver::Impl {
     fraction = scale;  // what predict() shows from a progress callback
     const bool newton = newtonEnabled();
     if (newton) solveOutputLayer(scale);
-    if (grid) solveGrid(scale);
+    if (grid && !solveGrid(scale)) return false;
     if (config.adam_iterations > 0) {
       torch::optim::Adam adam(params, torch::optim::AdamOptions(config.adam_learning_rate));
       const int n = config.adam_iterations;
@@ -531,7 +543,7 @@ struct DemSolver::Impl {
       rescaled = true;
     }
     if (newton) solveOutputLayer(scale);
-    if (grid && config.adam_iterations > 0) solveGrid(scale);
+    if (grid && config.adam_iterations > 0 && !solveGrid(scale)) return false;
     if (config.lbfgs_iterations > 0) {
       const auto before = snapshot();
       double e_before = 0;
@@ -792,7 +804,11 @@ DemReport DemSolver::solve() {
           m.restore(saved);
           m.fraction = done;
         },
-        "DEM", "Use more load_steps or a smaller load.", m.config.verbose);
+        "DEM",
+        m.grid ? "Use more load_steps or a smaller load; with the feature grid a Newton solve that does not converge "
+                 "fails its step too: try a coarser grid_cell (about two particle spacings) or more grid_newton_iterations."
+               : "Use more load_steps or a smaller load.",
+        m.config.verbose);
   }
   m.fraction = 1.0;
   report.output_scale = m.out_scale;

@@ -124,6 +124,14 @@ class GridFieldEnergy {
       }
       scatter(K, q0, values);
     }
+    // A component a fixture prescribes everywhere on a node's support (a plane-strain u_z = 0)
+    // has an empty row and column: give it a unit pivot so the factorisation needs no shift. Its
+    // gradient is zero, so it never moves.
+    double mean = 0.0;
+    for (Eigen::Index k = 0; k < hessian.rows(); ++k) mean += std::abs(hessian.coeff(k, k));
+    mean = std::max(mean / std::max<Eigen::Index>(1, hessian.rows()), std::numeric_limits<double>::min());
+    for (Eigen::Index k = 0; k < hessian.rows(); ++k)
+      if (hessian.coeff(k, k) == 0.0) hessian.coeffRef(k, k) = mean;
   }
 
   double work(const Eigen::VectorXd& c) const { return external_.dot(c) + external_offset_; }

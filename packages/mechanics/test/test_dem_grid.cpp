@@ -202,3 +202,25 @@ TEST(DemGrid, UnsupportedCombinationsFailBeforeTraining) {
   config.grid_degree = 5;
   EXPECT_THROW(dm::DemSolver(cloud, s, config), core::Error);
 }
+
+TEST(DemGrid, NewtonThatDoesNotConvergeIsReportedNotReturned) {
+  // One Newton iteration never confirms convergence: every load step fails, is halved, and the
+  // solve ends in an error that says what to change instead of a half-solved field.
+  const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(4, 4, 4));
+  dm::DemConfig config;
+  config.width = 8;
+  config.depth = 2;
+  config.adam_iterations = 0;
+  config.grid_cell = 0.5;
+  config.grid_newton_iterations = 1;
+  config.max_halvings = 2;
+  config.threads = 1;
+  dm::DemSolver dem(cloud, dm::uniaxialTractionScenario(1e5), config);
+  try {
+    dem.solve();
+    ADD_FAILURE() << "no error for a Newton solve that never converged";
+  } catch (const core::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("did not converge"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("grid_newton_iterations"), std::string::npos) << e.what();
+  }
+}
