@@ -28,6 +28,7 @@ nlohmann::json toJson(const DemConfig& c) {
           {"newton_every", c.newton_every},
           {"newton_iterations", c.newton_iterations},
           {"grid_cell", c.grid_cell},
+          {"grid_spacings", c.grid_spacings},
           {"grid_degree", c.grid_degree},
           {"grid_newton_iterations", c.grid_newton_iterations},
           {"grid_refine_band", c.grid_refine_band},
@@ -66,6 +67,7 @@ DemConfig configFromJson(const nlohmann::json& j) {
   c.newton_iterations = j.at("newton_iterations");
   // Models saved before the feature grid existed have none.
   c.grid_cell = j.value("grid_cell", 0.0);
+  c.grid_spacings = j.value("grid_spacings", 0.0);
   c.grid_degree = j.value("grid_degree", 2);
   c.grid_newton_iterations = j.value("grid_newton_iterations", 30);
   c.grid_refine_band = j.value("grid_refine_band", 1.0);

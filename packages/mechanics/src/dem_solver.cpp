@@ -44,6 +44,16 @@ Tensor det3(const Tensor& F) {
          f(0, 2) * (f(1, 0) * f(2, 1) - f(1, 1) * f(2, 0));
 }
 
+// The cube root of the median particle volume (0 without volumes).
+double medianParticleSpacing(const core::ParticleCloud& cloud) {
+  std::vector<double> volumes;
+  for (double v : cloud.volumes)
+    if (v > 0) volumes.push_back(v);
+  if (volumes.empty()) return 0.0;
+  std::nth_element(volumes.begin(), volumes.begin() + volumes.size() / 2, volumes.end());
+  return std::cbrt(volumes[volumes.size() / 2]);
+}
+
 }  // namespace
 
 struct DemSolver::Impl {
@@ -613,8 +623,11 @@ DemSolver::DemSolver(core::ParticleCloud cloud, const core::Scenario& scenario, 
     throw core::Error("DEM parametric load range [" + std::to_string(config.load_range_min) + ", " +
                       std::to_string(config.load_range_max) +
                       "] must be finite, ordered and contain 1 (the scenario's own load, which result() reports)");
-  if (config.grid_cell < 0 || !std::isfinite(config.grid_cell))
-    throw core::Error("DEM grid_cell must be >= 0 (0: no feature grid)");
+  if (config.grid_cell < 0 || !std::isfinite(config.grid_cell) || config.grid_spacings < 0 ||
+      !std::isfinite(config.grid_spacings))
+    throw core::Error("DEM grid_cell and grid_spacings must be >= 0 (0: no feature grid)");
+  const double spacing = medianParticleSpacing(cloud);
+  if (config.grid_cell == 0 && config.grid_spacings > 0) config.grid_cell = config.grid_spacings * spacing;
   if (config.grid_cell > 0 && (config.parametric || config.boundary != DemConfig::Boundary::kExact ||
                                config.output_newton))
     throw core::Error(
@@ -623,11 +636,6 @@ DemSolver::DemSolver(core::ParticleCloud cloud, const core::Scenario& scenario, 
   if (config.grid_cell > 0) {
     // The particles are the grid's quadrature: a cell of about one particle spacing has modes the
     // particles cannot see, and Newton finds them (a twisted bar: 80 % error at 1 spacing).
-    std::vector<double> volumes;
-    for (double v : cloud.volumes)
-      if (v > 0) volumes.push_back(v);
-    std::nth_element(volumes.begin(), volumes.begin() + volumes.size() / 2, volumes.end());
-    const double spacing = volumes.empty() ? 0.0 : std::cbrt(volumes[volumes.size() / 2]);
     if (config.grid_cell < 1.5 * spacing)
       throw core::Error("DEM grid_cell " + std::to_string(config.grid_cell) + " m is below 1.5 particle spacings (" +
                         std::to_string(spacing) + " m): the particles cannot integrate the grid's finer modes; use " +

@@ -25,10 +25,14 @@ DemNodeConfig DemNodeConfig::fromParameters(const ros::NodeHandle& node) {
   if (config.fem_order > 2) throw demnerf::core::Error("parameter ~fem_order must be 1 or 2");
   readCount(node, "dem_iterations", config.dem_iterations, 0);
   readNumber(node, "dem_grid_cell", config.dem_grid_cell, 0.0);
-  // With the feature grid its Newton solve is the training: Adam only when asked for.
-  if (config.dem_grid_cell > 0 && !node.hasParam("dem_iterations")) config.dem_iterations = 0;
-  readNumber(node, "max_solve_rate", config.max_solve_rate, 0.0);
+  readNumber(node, "dem_grid_spacings", config.dem_grid_spacings, 0.0);
   node.param("parametric", config.parametric, config.parametric);
+  // The feature grid does not take the load as an input: parametric mode trains the MLP alone.
+  if (config.parametric) config.dem_grid_cell = config.dem_grid_spacings = 0.0;
+  // With the feature grid its Newton solve is the training: Adam only when asked for.
+  const bool grid = config.dem_grid_cell > 0 || config.dem_grid_spacings > 0;
+  if (grid && !node.hasParam("dem_iterations")) config.dem_iterations = 0;
+  readNumber(node, "max_solve_rate", config.max_solve_rate, 0.0);
   node.param("load_range", config.load_range, config.load_range);
   if (config.load_range.size() != 2 || !(config.load_range[0] < config.load_range[1]) || config.load_range[0] > 1.0 ||
       config.load_range[1] < 1.0)
@@ -41,6 +45,7 @@ demnerf::mechanics::SimulateOptions DemNodeConfig::simulateOptions() const {
   options.voxel.order = fem_order;
   options.dem.adam_iterations = dem_iterations;
   options.dem.grid_cell = dem_grid_cell;
+  options.dem.grid_spacings = dem_grid_spacings;
   options.dem.threads = threads;
   options.dem.parametric = parametric;
   options.dem.load_range_min = load_range[0];

@@ -24,7 +24,8 @@ struct DemNodeConfig {
   int threads = 0;                 ///< torch threads (0: all cores)
   int fem_order = 1;               ///< FEM baseline: 1 linear tets (seconds), 2 quadratic (minutes on 10k particles)
   int dem_iterations = 1500;       ///< DEM Adam iterations per load step (0 by default with a grid)
-  double dem_grid_cell = 0.0;      ///< DEM feature grid cell (m; 0: MLP only), DemConfig::grid_cell
+  double dem_grid_cell = 0.0;      ///< DEM feature grid cell (m; 0: from dem_grid_spacings), DemConfig::grid_cell
+  double dem_grid_spacings = 2.0;  ///< DEM feature grid cell in particle spacings (0 and no cell: MLP only)
   /// Hz: solves start at most this often (0: no limit). Wrenches arriving in between coalesce,
   /// so a 100 Hz stream of fast solves cannot take a core from the NeRF training beside it.
   double max_solve_rate = 2.0;
