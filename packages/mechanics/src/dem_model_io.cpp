@@ -32,6 +32,7 @@ nlohmann::json toJson(const DemConfig& c) {
           {"grid_degree", c.grid_degree},
           {"grid_newton_iterations", c.grid_newton_iterations},
           {"grid_refine_band", c.grid_refine_band},
+          {"grid_surface_share", c.grid_surface_share},
           {"load_steps", c.load_steps},
           {"jitter", c.jitter},
           {"jitter_band", c.jitter_band},
@@ -71,6 +72,7 @@ DemConfig configFromJson(const nlohmann::json& j) {
   c.grid_degree = j.value("grid_degree", 2);
   c.grid_newton_iterations = j.value("grid_newton_iterations", 30);
   c.grid_refine_band = j.value("grid_refine_band", 1.0);
+  c.grid_surface_share = j.value("grid_surface_share", 0.04);
   c.load_steps = j.value("load_steps", 0);
   c.jitter = j.at("jitter");
   c.jitter_band = j.at("jitter_band");

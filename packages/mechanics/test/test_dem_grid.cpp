@@ -130,8 +130,8 @@ TEST(DemGrid, NewtonOnTheGridSolvesTheUniaxialStretch) {
 TEST(DemGrid, TwistedBarAgreesWithQuadraticFem) {
   // A non-homogeneous case (5 degrees of twist) that needs the warping of the square section: the
   // grid DEM on 5 mm particles against TET10 on 15 mm (within 0.4 % of TET10 on 10 mm here).
-  // Measured 1.5 %; 4.2 % from 7.5 mm particles, and garbage (80 %) when the grid cell equals the
-  // particle spacing, which the solver now refuses.
+  // Measured 1.3 %; 4.2 % from 7.5 mm particles (without the surface share), and garbage (80 %)
+  // when the grid cell equals the particle spacing, which the solver refuses.
   const core::Scenario s = twistedBar(0.12);
   const core::ParticleCloud cloud =
       dm::makeBoxParticles(Vector3d(-0.03, -0.03, 0), Vector3d(0.03, 0.03, 0.24), Eigen::Vector3i(12, 12, 48));

@@ -48,7 +48,7 @@ struct DemConfig {
   /// field. C is solved by Newton's method with the MLP frozen (grid_field_newton.hpp) before and
   /// after each load step's Adam run, and trained with the MLP by Adam in between. Local support is
   /// what the twist needs: the warping of a square section and the clamp's boundary layer (T-bar
-  /// twist: 5 % in 4 s at 15 mm cells, where the MLP alone reaches 22 % in 20 s; README
+  /// twist: 1.8 % in 3.9 s at 15 mm cells, where the MLP alone reaches 22 % in 20 s; README
   /// "Mechanics").
   double grid_cell = 0.0;
   /// With grid_cell 0: a grid of cells this many particle spacings wide (the cube root of the
@@ -60,6 +60,12 @@ struct DemConfig {
   /// cells of a fixture are split into 2 x 2 x 2 sub-points, which close the gap between the
   /// fixture and the first particle layer where a field could otherwise hide a displacement ramp.
   double grid_refine_band = 1.0;
+  /// The grid Newton's quadrature weights are (1 - f) volumes + f energyWeights() with f this
+  /// share: surface particles carry a small part of their neighbours' volume. Without it, grid nodes
+  /// that only the outermost interior particles see extrapolate freely to the surface (NeRF
+  /// particles of the T-bar: one corner particle moved 287 mm in a 60 mm twist); energyWeights' full
+  /// share (f = 1) overstates a twisted section's surface strain (6 % error). README "Mechanics".
+  double grid_surface_share = 0.04;
   /// Load steps (0: the scenario's, or 1 with the feature grid: Newton with its line search takes
   /// the T-bar twist in one, 4 s, where the scenario's 4 steps take 9 s; a failed step is halved).
   int load_steps = 0;
