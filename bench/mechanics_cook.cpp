@@ -25,10 +25,12 @@
 #include "demnerf/mechanics/fem_solver.hpp"
 #include "demnerf/mechanics/reference_problems.hpp"
 #include "demnerf/mechanics/tet_mesh.hpp"
+#include "mechanics_bench_common.hpp"
 
 namespace dm = demnerf::mechanics;
 namespace core = demnerf::core;
 using Eigen::Vector3d;
+using demnerf::bench::addParticle;
 
 namespace {
 
@@ -46,11 +48,7 @@ core::ParticleCloud cookParticles(int n, int layers) {
   core::ParticleCloud cloud;
   const double thickness = 1e-3, ds = 1.0 / n, dz = thickness / layers, h = 1e-7;
   auto add = [&](const Vector3d& x, double volume, const Vector3d& normal, double area) {
-    cloud.positions.push_back(x);
-    cloud.volumes.push_back(volume);
-    cloud.normals.push_back(normal);
-    cloud.areas.push_back(area);
-    cloud.colors.push_back({200, 200, 200});
+    addParticle(cloud, x, volume, normal, area);
   };
   for (int k = 0; k < layers; ++k) {
     const double z = (k + 0.5) * dz;

@@ -15,7 +15,7 @@ namespace {
 
 Figures runSimulate(const Arguments& arguments) {
   arguments.rejectUnknown({"particles", "scenario", "solver", "mesh", "out", "cell", "order", "iterations", "width",
-                           "depth", "boundary", "threads", "json", "quiet", "save-model", "load-range", "newton", "grid-cell"});
+                           "depth", "boundary", "threads", "json", "quiet", "save-model", "load-range", "newton", "grid-cell", "grid-spacings"});
   const std::string solver_name = arguments.text("solver", "dem");
   if (solver_name != "dem" && solver_name != "fem" && solver_name != "pinn")
     throw UsageError("option --solver expects dem, fem or pinn, got '" + solver_name + "'");
@@ -65,8 +65,14 @@ Figures runSimulate(const Arguments& arguments) {
     options.dem.grid_cell = arguments.number("grid-cell", 0.0);
     if (!(options.dem.grid_cell > 0))
       throw UsageError("option --grid-cell expects the feature grid's cell edge in metres (> 0; about two particle spacings)");
-    if (!arguments.has("iterations")) options.dem.adam_iterations = 0;
   }
+  if (arguments.has("grid-spacings")) {
+    options.dem.grid_spacings = arguments.number("grid-spacings", 0.0);
+    if (!(options.dem.grid_spacings > 0))
+      throw UsageError("option --grid-spacings expects the feature grid's cell in particle spacings (> 0; 2 is a good choice)");
+  }
+  if ((arguments.has("grid-cell") || arguments.has("grid-spacings")) && !arguments.has("iterations"))
+    options.dem.adam_iterations = 0;
   const std::string boundary = arguments.text("boundary", "exact");
   if (boundary == "penalty") options.dem.boundary = mechanics::DemConfig::Boundary::kPenalty;
   else if (boundary != "exact") throw UsageError("option --boundary expects exact or penalty, got '" + boundary + "'");
@@ -93,7 +99,7 @@ const Command kSimulateCommand = {
     "simulate", "quasi-static deformation of a particle cloud",
     "--particles P.ply --scenario S.yaml --solver dem|fem|pinn [--mesh M.ply] --out R.ply "
     "[--cell H] [--order 1|2] [--iterations N] [--width W] [--depth D] [--boundary exact|penalty] "
-    "[--threads T] [--save-model M.dem] [--load-range MIN,MAX] [--newton] [--grid-cell H] [--json]",
+    "[--threads T] [--save-model M.dem] [--load-range MIN,MAX] [--newton] [--grid-cell H | --grid-spacings S] [--json]",
     runSimulate};
 
 }  // namespace demnerf::cli

@@ -13,19 +13,15 @@
 #include "demnerf/mechanics/dirichlet_lift.hpp"
 #include "demnerf/mechanics/reference_problems.hpp"
 
+#include "box_region.hpp"
+
 namespace dm = demnerf::mechanics;
 namespace core = demnerf::core;
 using Eigen::Vector3d;
 
 namespace {
 
-core::Region box(const Vector3d& center, const Vector3d& size) {
-  core::Region r;
-  r.type = core::Region::Type::kBox;
-  r.center = center;
-  r.size = size;
-  return r;
-}
+using demnerf::mechanics::test::box;
 
 core::Fixture roller(int axis) {
   core::Fixture f;

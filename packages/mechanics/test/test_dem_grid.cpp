@@ -13,19 +13,15 @@
 #include "demnerf/mechanics/reference_problems.hpp"
 #include "demnerf/mechanics/voxel_mesh.hpp"
 
+#include "box_region.hpp"
+
 namespace dm = demnerf::mechanics;
 namespace core = demnerf::core;
 using Eigen::Vector3d;
 
 namespace {
 
-core::Region box(const Vector3d& center, const Vector3d& size) {
-  core::Region r;
-  r.type = core::Region::Type::kBox;
-  r.center = center;
-  r.size = size;
-  return r;
-}
+using demnerf::mechanics::test::box;
 
 // A 60 x 60 x 240 mm soft bar clamped at its base face and twisted by a torque on its top face.
 core::Scenario twistedBar(double torque) {

@@ -9,19 +9,15 @@
 #include "demnerf/mechanics/fem_solver.hpp"
 #include "demnerf/mechanics/reference_problems.hpp"
 
+#include "box_region.hpp"
+
 namespace dm = demnerf::mechanics;
 namespace core = demnerf::core;
 using Eigen::Vector3d;
 
 namespace {
 
-core::Region box(const Vector3d& center, const Vector3d& size) {
-  core::Region r;
-  r.type = core::Region::Type::kBox;
-  r.center = center;
-  r.size = size;
-  return r;
-}
+using demnerf::mechanics::test::box;
 
 core::Fixture roller(const std::string& name, int axis, double at, double value = 0.0) {
   core::Fixture f;

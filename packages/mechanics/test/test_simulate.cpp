@@ -9,6 +9,8 @@
 #include "demnerf/mechanics/simulate.hpp"
 #include "demnerf/mechanics/voxel_mesh.hpp"
 
+#include "box_region.hpp"
+
 namespace dm = demnerf::mechanics;
 namespace core = demnerf::core;
 using Eigen::Vector3d;
@@ -27,13 +29,7 @@ double meshVolume(const dm::TetMesh& mesh) {
   return total;
 }
 
-core::Region box(const Vector3d& center, const Vector3d& size) {
-  core::Region r;
-  r.type = core::Region::Type::kBox;
-  r.center = center;
-  r.size = size;
-  return r;
-}
+using demnerf::mechanics::test::box;
 
 // Box [0,L]x[0,1]x[0,1] on rollers at x = 0, y = 0, z = 0, pulled by P11 on x = L.
 core::Scenario uniaxial(double p11, double length) {

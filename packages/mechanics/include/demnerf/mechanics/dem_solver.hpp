@@ -51,8 +51,9 @@ struct DemConfig {
   /// twist: 1.8 % in 3.9 s at 15 mm cells, where the MLP alone reaches 22 % in 20 s; README
   /// "Mechanics").
   double grid_cell = 0.0;
-  /// With grid_cell 0: a grid of cells this many particle spacings wide (the cube root of the
-  /// median particle volume; 2 is a good choice), so one setting suits any object. 0: no grid.
+  /// With grid_cell 0: a grid of cells this many particle spacings wide (the cube root of the 90th
+  /// percentile of the particle volumes; 2 is a good choice), so one setting suits any object.
+  /// 0: no grid.
   double grid_spacings = 0.0;
   int grid_degree = 2;  ///< 1 (trilinear), 2 (C1 quadratic) or 3 (C2 cubic)
   int grid_newton_iterations = 30;
