@@ -5,6 +5,9 @@
 //        ref_out=PATH (the finest level at the particles, a result PLY; default: none written)
 //        scenario=PATH threads=N verbose=0|1 patch_inner=X (load patches from |x| = X, a study
 //        variant whose patch edge is a grid line of every level)
+//        mesher=voxel|cgal (cgal: CGAL Mesh_3 tetrahedra of edge h of the T-bar's union surface)
+//        ref=PATH (also give each level's rel L2 against this result PLY at the same particles,
+//        e.g. bench/data/tbar_twist_fem_reference.ply)
 //   mode=speed: the CLI's `demnerf simulate --solver fem --order 1` on the 6 mm grid particles
 //        (voxels from the particles), reps=3 order=1 cell=0.006 [particles=P.ply] [ordering=amd]
 //        [reuse=CG_ITS] [steps=N] -> median seconds.
@@ -12,6 +15,7 @@
 // the table gives the relative L2 difference of each level to the finest one there.
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -23,6 +27,7 @@
 #include "demnerf/core/ply.hpp"
 #include "demnerf/core/scenario.hpp"
 #include "demnerf/mechanics/box_particles.hpp"
+#include "demnerf/mechanics/cgal_tet_mesh.hpp"
 #include "demnerf/mechanics/fem_solver.hpp"
 #include "demnerf/mechanics/voxel_mesh.hpp"
 #include "mechanics_bench_common.hpp"
@@ -53,6 +58,52 @@ core::TriangleMesh tbarSurface() {
   for (const auto& f : bar.faces) surface.faces.push_back({f[0] + offset, f[1] + offset, f[2] + offset});
   surface.vertices.insert(surface.vertices.end(), bar.vertices.begin(), bar.vertices.end());
   return surface;
+}
+
+// The T-bar as ONE closed two-manifold surface (what CGAL's mesher needs; the two touching boxes
+// above are not one): the boundary faces of the 4 boxes of the grid x {-0.15, -0.03, 0.03, 0.15},
+// y {-0.03, 0.03}, z {0, 0.24, 0.30} that the body fills (the leg, three bar segments), each face
+// split into two outward triangles; shared grid corners make it conforming (no T-junctions).
+core::TriangleMesh tbarUnionSurface() {
+  const double xs[] = {-0.15, -0.03, 0.03, 0.15}, ys[] = {-0.03, 0.03}, zs[] = {0.0, 0.24, 0.30};
+  auto filled = [](int i, int j, int k) {
+    if (i < 0 || i > 2 || j != 0 || k < 0 || k > 1) return false;
+    return k == 1 || i == 1;
+  };
+  core::TriangleMesh m;
+  std::map<std::array<int, 3>, int> id;
+  auto vertex = [&](std::array<int, 3> g) {
+    auto it = id.find(g);
+    if (it != id.end()) return it->second;
+    m.vertices.emplace_back(xs[g[0]], ys[g[1]], zs[g[2]]);
+    return id[g] = static_cast<int>(m.vertices.size()) - 1;
+  };
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k < 2; ++k) {
+      if (!filled(i, 0, k)) continue;
+      for (int axis = 0; axis < 3; ++axis)
+        for (int side : {0, 1}) {
+          std::array<int, 3> n{i, 0, k};
+          n[axis] += side ? 1 : -1;
+          if (filled(n[0], n[1], n[2])) continue;
+          // The face's corners in counter-clockwise order seen from outside.
+          const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+          std::array<int, 3> c{i, 0, k};
+          c[axis] += side;
+          std::array<int, 4> q;
+          const int du[4] = {0, 1, 1, 0}, dv[4] = {0, 0, 1, 1};
+          for (int r = 0; r < 4; ++r) {
+            std::array<int, 3> g = c;
+            g[u] += du[r];
+            g[v] += dv[r];
+            q[r] = vertex(g);
+          }
+          if (side == 0) std::swap(q[1], q[3]);
+          m.faces.push_back({q[0], q[1], q[2]});
+          m.faces.push_back({q[0], q[2], q[3]});
+        }
+    }
+  return m;
 }
 
 struct Level {
@@ -120,7 +171,10 @@ int main(int argc, char** argv) {
 
   const core::ParticleCloud cloud = tbarParticles(num("particle_h", 0.0075));
   const std::vector<Vector3d> patches = {Vector3d(0.125, -0.03, 0.27), Vector3d(-0.125, 0.03, 0.27)};
-  const core::TriangleMesh surface = tbarSurface();
+  const bool cgal = str("mesher", "voxel") == "cgal";
+  const core::TriangleMesh surface = cgal ? tbarUnionSurface() : tbarSurface();
+  core::ResultField reference;
+  if (a.count("ref")) reference = core::readResult(a["ref"]);
   std::vector<int> orders;
   const std::string order_text = str("orders", "2");
   for (char c : order_text)
@@ -133,7 +187,11 @@ int main(int argc, char** argv) {
       voxel.cell = h;
       voxel.order = order;
       const auto start = std::chrono::steady_clock::now();
-      dm::FemSolver fem(dm::voxelMeshFromSurface(surface, voxel), scenario, fem_config);
+      dm::CgalMeshConfig cgal_config;
+      cgal_config.cell = h;
+      cgal_config.order = order;
+      dm::FemSolver fem(cgal ? dm::cgalMeshFromSurface(surface, cgal_config) : dm::voxelMeshFromSurface(surface, voxel),
+                        scenario, fem_config);
       const dm::FemResult& r = fem.solve();
       Level level;
       level.seconds = since(start);
@@ -153,6 +211,21 @@ int main(int argc, char** argv) {
       level.patch[1] = p[1];
       std::fprintf(stderr, "TET%d h=%g: %zu elements, %zu dofs, %.1f s, %d Newton its\n", order == 1 ? 4 : 10, h,
                    level.elements, level.dofs, level.seconds, level.newton);
+      if (!reference.displacements.empty()) {
+        if (reference.size() != cloud.size()) {
+          std::fprintf(stderr, "ref has %zu rows, the particles %zu: use the particle_h it was written with\n",
+                       reference.size(), cloud.size());
+          return 1;
+        }
+        double e = 0, r = 0;
+        for (std::size_t i = 0; i < cloud.size(); ++i) {
+          e += (level.u[i] - reference.displacements[i]).squaredNorm();
+          r += reference.displacements[i].squaredNorm();
+        }
+        std::printf("%s TET%d h=%g: %zu elements, %zu dofs, %.1f s (mesh + solve), rel L2 vs %s: %.3e\n",
+                    cgal ? "cgal" : "voxel", order == 1 ? 4 : 10, h, level.elements, level.dofs, level.seconds,
+                    a["ref"].c_str(), std::sqrt(e / r));
+      }
       levels.push_back(std::move(level));
     }
   if (levels.empty()) return 0;

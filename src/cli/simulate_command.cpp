@@ -15,7 +15,7 @@ namespace {
 
 Figures runSimulate(const Arguments& arguments) {
   arguments.rejectUnknown({"particles", "scenario", "solver", "mesh", "out", "cell", "order", "iterations", "width",
-                           "depth", "boundary", "threads", "json", "quiet", "save-model", "load-range", "newton", "grid-cell", "grid-spacings"});
+                           "depth", "boundary", "threads", "json", "quiet", "save-model", "load-range", "newton", "grid-cell", "grid-spacings", "mesher"});
   const std::string solver_name = arguments.text("solver", "dem");
   if (solver_name != "dem" && solver_name != "fem" && solver_name != "pinn")
     throw UsageError("option --solver expects dem, fem or pinn, got '" + solver_name + "'");
@@ -31,6 +31,10 @@ Figures runSimulate(const Arguments& arguments) {
     throw UsageError("option --order expects 1 (TET4) or 2 (TET10), got " + std::to_string(options.voxel.order));
   if (options.voxel.cell < 0) throw UsageError("option --cell expects a positive length in metres (0: automatic)");
   if (arguments.has("mesh")) options.surface = core::readMesh(arguments.text("mesh"));
+  // How --mesh is meshed for the FEM: CGAL tetrahedra that follow the surface, or voxels.
+  const std::string mesher = arguments.text("mesher", "cgal");
+  if (mesher == "voxel") options.mesher = mechanics::SimulateOptions::Mesher::kVoxel;
+  else if (mesher != "cgal") throw UsageError("option --mesher expects cgal or voxel, got '" + mesher + "'");
   options.dem.adam_iterations = arguments.integer("iterations", options.dem.adam_iterations);
   options.dem.width = arguments.integer("width", options.dem.width);
   options.dem.depth = arguments.integer("depth", options.dem.depth);
@@ -97,7 +101,7 @@ Figures runSimulate(const Arguments& arguments) {
 
 const Command kSimulateCommand = {
     "simulate", "quasi-static deformation of a particle cloud",
-    "--particles P.ply --scenario S.yaml --solver dem|fem|pinn [--mesh M.ply] --out R.ply "
+    "--particles P.ply --scenario S.yaml --solver dem|fem|pinn [--mesh M.ply [--mesher cgal|voxel]] --out R.ply "
     "[--cell H] [--order 1|2] [--iterations N] [--width W] [--depth D] [--boundary exact|penalty] "
     "[--threads T] [--save-model M.dem] [--load-range MIN,MAX] [--newton] [--grid-cell H | --grid-spacings S] [--json]",
     runSimulate};

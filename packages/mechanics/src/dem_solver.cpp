@@ -429,9 +429,7 @@ struct DemSolver::Impl {
     GridNewtonConfig newton;
     newton.max_iterations = config.grid_newton_iterations;
     const GridNewtonOutcome outcome = minimiseGridField(pb, *material, *grid, C, newton);
-    C /= out_scale;
-    const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> rows = C;
-    grid_coef.copy_(torch::from_blob(const_cast<double*>(rows.data()), {rows.rows(), 3}, torch::kFloat64));
+    setGridCoefficients(C / out_scale);
     if (config.verbose)
       std::cerr << "dem: grid Newton " << outcome.iterations << " its, energy " << outcome.energy << ", min J "
                 << outcome.min_J << (outcome.converged ? "" : " (not converged)") << "; assembly "
@@ -440,12 +438,17 @@ struct DemSolver::Impl {
     return outcome.converged;
   }
 
+  // C (nodes x 3) into the grid's parameter tensor (row-major, the solver's dtype).
+  void setGridCoefficients(const Eigen::MatrixXd& C) {
+    torch::NoGradGuard guard;
+    const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> rows = C;
+    grid_coef.copy_(torch::from_blob(const_cast<double*>(rows.data()), {rows.rows(), 3}, torch::kFloat64));
+  }
+
   // The grid Newton's quadrature: the particles' own volumes (midpoint rule) with a small share on
   // the surface particles (DemConfig::grid_surface_share), interior particles near a fixture or
-  // load split into 2 x 2 x 2 sub-points of their cube. Not energyWeights(): its surface shares weight the surface's strain by a quarter cell,
-  // which overstates the energy of a twisted section, where the strain peaks at the surface (T-bar:
-  // 6 % rel. L2 with the shares, 1.4 % without). A grid of cells a few particle spacings wide
-  // cannot open the surface jump those shares guard the MLP against.
+  // load split into 2 x 2 x 2 sub-points of their cube (Newton has no jitter to catch a ramp
+  // between a region and the first particle layer).
   void buildGridQuadrature() {
     // (1 - f) volumes + f energyWeights: both sum to the body's volume, so a homogeneous state
     // keeps its exact energy.
@@ -957,8 +960,7 @@ DemSolver DemSolver::fromState(const DemState& state) {
       throw core::Error("DEM state: the feature grid needs " + std::to_string(m.grid->nodeCount()) +
                         " x 3 finite coefficients, the state has " + std::to_string(C.rows()) + " x " +
                         std::to_string(C.cols()));
-    const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> rows = C;
-    m.grid_coef.copy_(torch::from_blob(const_cast<double*>(rows.data()), {rows.rows(), 3}, torch::kFloat64));
+    m.setGridCoefficients(C);
   }
   if (!(state.output_scale > 0) || !(state.energy_scale > 0) || !std::isfinite(state.fraction))
     throw core::Error("DEM state: output and energy scales must be positive and the load fraction finite");

@@ -29,7 +29,10 @@ class GridFieldEnergy {
     const long n = static_cast<long>(problem.points.size());
     if (problem.volume.size() != problem.points.size() || problem.offset.size() != problem.points.size() ||
         problem.grad_offset.size() != problem.points.size() || problem.D.size() != problem.points.size() ||
-        problem.grad_D.size() != problem.points.size() || problem.body.size() != problem.points.size())
+        problem.grad_D.size() != problem.points.size() || problem.body.size() != problem.points.size() ||
+        problem.surface_offset.size() != problem.surface_points.size() ||
+        problem.surface_D.size() != problem.surface_points.size() ||
+        problem.surface_force.size() != problem.surface_points.size())
       throw core::Error("grid field problem: per-point arrays differ in length");
     // Points in cell order.
     order_.resize(n);
@@ -72,8 +75,7 @@ class GridFieldEnergy {
     surface_nodes_.resize(problem.surface_points.size() * S_);
     surface_phi_.resize(problem.surface_points.size() * S_);
     for (std::size_t q = 0; q < problem.surface_points.size(); ++q) {
-      std::vector<Eigen::Vector3d> unused(S_);
-      grid.evaluate(problem.surface_points[q], &surface_nodes_[q * S_], N.data(), unused.data());
+      grid.evaluate(problem.surface_points[q], &surface_nodes_[q * S_], N.data(), dN.data());
       for (int s = 0; s < S_; ++s) surface_phi_[q * S_ + s] = problem.surface_D[q] * N[s];
     }
     buildPattern();

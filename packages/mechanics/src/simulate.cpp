@@ -6,6 +6,7 @@
 
 #include "demnerf/core/error.hpp"
 #include "demnerf/mechanics/boundary_conditions.hpp"
+#include "demnerf/mechanics/cgal_tet_mesh.hpp"
 #include "demnerf/mechanics/dem_model_io.hpp"
 
 namespace demnerf::mechanics {
@@ -51,7 +52,14 @@ SimulationOutcome simulate(const core::ParticleCloud& cloud, const core::Scenari
           std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
           voxel.cell = std::cbrt(v[v.size() / 2]);
         }
-        mesh = voxelMeshFromSurface(*options.surface, voxel);
+        if (options.mesher == SimulateOptions::Mesher::kCgal) {
+          CgalMeshConfig cgal;
+          cgal.cell = voxel.cell;
+          cgal.order = voxel.order;
+          mesh = cgalMeshFromSurface(*options.surface, cgal);
+        } else {
+          mesh = voxelMeshFromSurface(*options.surface, voxel);
+        }
       } else {
         mesh = voxelMeshFromParticles(cloud, voxel);
       }

@@ -27,10 +27,15 @@ struct SimulateOptions {
   FemConfig fem;
   PinnConfig pinn;
   /// FEM mesh: hexes of this size (0: the cube root of the median particle volume), split into
-  /// tetrahedra of voxel.order.
+  /// tetrahedra of voxel.order. With a surface and the CGAL mesher, the target tetrahedron edge
+  /// (same automatic rule) and order of the CGAL mesh.
   VoxelMeshConfig voxel;
-  /// FEM: voxelise this closed surface instead of the cells that hold particles.
+  /// FEM: mesh this closed surface instead of the cells that hold particles.
   std::optional<core::TriangleMesh> surface;
+  /// How a surface is meshed: CGAL Mesh_3 tetrahedra that follow the surface (sharp edges kept),
+  /// or voxels whose centres lie inside it (staircased faces; no closedness check).
+  enum class Mesher { kCgal, kVoxel };
+  Mesher mesher = Mesher::kCgal;
 };
 
 struct SimulationOutcome {
