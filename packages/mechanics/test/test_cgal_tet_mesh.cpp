@@ -1,0 +1,117 @@
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "demnerf/core/error.hpp"
+#include "demnerf/mechanics/box_particles.hpp"
+#include "demnerf/mechanics/cgal_tet_mesh.hpp"
+#include "demnerf/mechanics/fem_solver.hpp"
+#include "demnerf/mechanics/reference_problems.hpp"
+
+namespace dm = demnerf::mechanics;
+namespace core = demnerf::core;
+using Eigen::Vector3d;
+
+namespace {
+
+double elementVolume(const dm::TetMesh& mesh, const std::array<int, 10>& e) {
+  double volume = 0;
+  dm::barycentricGradients({mesh.nodes[e[0]], mesh.nodes[e[1]], mesh.nodes[e[2]], mesh.nodes[e[3]]}, &volume);
+  return volume;
+}
+
+TEST(CgalTetMesh, BoxIsFilledWithPositiveTetrahedraAndKeepsItsFaces) {
+  const Vector3d lo(0.1, -0.2, 0.0), hi(0.7, 0.2, 0.3);
+  dm::CgalMeshConfig config;
+  config.cell = 0.1;
+  config.order = 2;
+  const dm::TetMesh mesh = dm::cgalMeshFromSurface(dm::boxSurface(lo, hi), config);
+  ASSERT_EQ(mesh.order, 2);
+  ASSERT_EQ(mesh.nodesPerElement(), 10);
+  ASSERT_GT(mesh.elements.size(), 24u);  // a real refinement, not a handful of tetrahedra
+  const int n = static_cast<int>(mesh.nodes.size());
+  std::vector<char> used(n, 0);
+  double total = 0;
+  for (const auto& e : mesh.elements) {
+    for (int k = 0; k < 10; ++k) {
+      ASSERT_GE(e[k], 0);
+      ASSERT_LT(e[k], n);
+      used[e[k]] = 1;
+    }
+    const double v = elementVolume(mesh, e);
+    EXPECT_GT(v, 0.0);
+    total += v;
+  }
+  const double box_volume = (hi - lo).prod();
+  EXPECT_NEAR(total, box_volume, 0.01 * box_volume);
+  // Only used nodes are kept, and all of them lie in the box (the faces are not bulged out).
+  EXPECT_EQ(std::count(used.begin(), used.end(), 0), 0);
+  for (const Vector3d& x : mesh.nodes) {
+    EXPECT_TRUE((x.array() >= lo.array() - 1e-9).all() && (x.array() <= hi.array() + 1e-9).all()) << x.transpose();
+  }
+  // Sharp edges are protected: every corner of the box is a node.
+  for (int k = 0; k < 8; ++k) {
+    const Vector3d corner(k & 1 ? hi.x() : lo.x(), k & 2 ? hi.y() : lo.y(), k & 4 ? hi.z() : lo.z());
+    double nearest = 1e9;
+    for (const Vector3d& x : mesh.nodes) nearest = std::min(nearest, (x - corner).norm());
+    EXPECT_LT(nearest, 1e-9) << "corner " << corner.transpose();
+  }
+  // The seed fixes CGAL's random choices: the same input gives the same mesh.
+  const dm::TetMesh again = dm::cgalMeshFromSurface(dm::boxSurface(lo, hi), config);
+  ASSERT_EQ(again.nodes.size(), mesh.nodes.size());
+  ASSERT_EQ(again.elements, mesh.elements);
+  for (std::size_t i = 0; i < mesh.nodes.size(); ++i) EXPECT_EQ(again.nodes[i], mesh.nodes[i]);
+  // Linear order: four corners, no midpoints.
+  config.order = 1;
+  const dm::TetMesh linear = dm::cgalMeshFromSurface(dm::boxSurface(lo, hi), config);
+  EXPECT_EQ(linear.order, 1);
+  EXPECT_EQ(linear.elements.size(), mesh.elements.size());
+  for (const auto& e : linear.elements) EXPECT_EQ(e[4], -1);
+}
+
+TEST(CgalTetMesh, FemOnTheMeshReproducesUniaxialTraction) {
+  // The exact field is linear, so TET4 and TET10 on any conforming mesh of the cube reproduce it
+  // to round-off, provided the mesh's faces lie on the roller and load planes.
+  const double p11 = 3e5;
+  const core::Scenario s = dm::uniaxialTractionScenario(p11);
+  double b = 0;
+  const double a = dm::uniaxialStretchForStress(*dm::makeMaterial(s.material), p11, &b);
+  for (int order : {1, 2}) {
+    dm::CgalMeshConfig config;
+    config.cell = 0.3;
+    config.order = order;
+    dm::FemSolver solver(dm::cgalMeshFromSurface(dm::boxSurface(Vector3d(0, 0, 0), Vector3d(1, 1, 1)), config), s);
+    const dm::FemResult& r = solver.solve();
+    const dm::TetMesh& mesh = solver.mesh();
+    double err = 0;
+    for (std::size_t i = 0; i < mesh.nodes.size(); ++i) {
+      const Vector3d& X = mesh.nodes[i];
+      const Vector3d exact((a - 1) * X.x(), (b - 1) * X.y(), (b - 1) * X.z());
+      err = std::max(err, (r.displacement[i] - exact).norm());
+    }
+    EXPECT_LT(err, 1e-6 * (a - 1)) << "order " << order << ", " << mesh.elements.size() << " elements";
+    const dm::PointField f = solver.interpolate({Vector3d(0.3, 0.6, 0.2)});
+    EXPECT_NEAR(f.von_mises[0], p11 / (b * b), 1e-6 * p11) << "order " << order;
+  }
+}
+
+TEST(CgalTetMesh, OpenOrBadSurfacesAreReported) {
+  const core::TriangleMesh box = dm::boxSurface(Vector3d(0, 0, 0), Vector3d(1, 1, 1));
+  dm::CgalMeshConfig config;
+  config.cell = 0.5;
+  core::TriangleMesh open = box;
+  open.faces.pop_back();
+  EXPECT_THROW(dm::cgalMeshFromSurface(open, config), core::Error);
+  core::TriangleMesh flipped = box;
+  std::swap(flipped.faces[3][1], flipped.faces[3][2]);
+  EXPECT_THROW(dm::cgalMeshFromSurface(flipped, config), core::Error);
+  EXPECT_THROW(dm::cgalMeshFromSurface(core::TriangleMesh{}, config), core::Error);
+  config.order = 3;
+  EXPECT_THROW(dm::cgalMeshFromSurface(box, config), core::Error);
+  config.order = 2;
+  config.cell = -1;
+  EXPECT_THROW(dm::cgalMeshFromSurface(box, config), core::Error);
+}
+
+}  // namespace
