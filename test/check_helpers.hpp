@@ -1,15 +1,22 @@
 #pragma once
-// Shared by the rostest checks of the nodes' bad-input, render and resume behaviour: a ~status
-// recorder, waiting for a latched message, and a small bar of particles with a clamped end.
+// Shared by the rostest checks of the nodes: a ~status recorder, waiting for a latched message, a
+// small bar of particles with a clamped end, the tool frame its wrenches come in, half-spaces.
 
+#include <dem_nerf/Region.h>
 #include <dem_nerf/TrainingStatus.h>
+#include <geometry_msgs/TransformStamped.h>
 #include <ros/ros.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <tf2_ros/static_transform_broadcaster.h>
+
+#include <cmath>
 
 #include <functional>
 #include <mutex>
 #include <string>
 #include <vector>
 
+#include "conversions/cloud_conversions.hpp"
 #include "demnerf/core/ply.hpp"
 
 namespace dem_nerf_test {
@@ -106,12 +113,11 @@ inline bool spinUntil(const std::function<bool()>& done, double seconds) {
   return done();
 }
 
-/// A 0.1 x 0.02 x 0.02 m bar along +x sampled every 10 mm (99 particles: small, so that each
+/// A 0.1 x 0.02 x 0.02 m bar along +x sampled every `h` (10 mm: 99 particles, small, so that each
 /// solve stays short on a loaded 2-core machine); the outer layer carries normals and areas
 /// (cuboid_test.yaml clamps its x = 0 end).
-inline demnerf::core::ParticleCloud barParticles() {
-  const double h = 0.01;
-  const int n = 10, m = 2;  // intervals along x and across
+inline demnerf::core::ParticleCloud barParticles(double h = 0.01) {
+  const int n = static_cast<int>(std::lround(0.1 / h)), m = static_cast<int>(std::lround(0.02 / h));
   demnerf::core::ParticleCloud cloud;
   for (int i = 0; i <= n; ++i) {
     for (int j = 0; j <= m; ++j) {
@@ -133,6 +139,38 @@ inline demnerf::core::ParticleCloud barParticles() {
     }
   }
   return cloud;
+}
+
+/// Publishes the static frame "tool" 0.1 m along x of "world" (the bar's free end), where the
+/// checks' wrenches are expressed.
+inline void broadcastToolFrame(tf2_ros::StaticTransformBroadcaster& broadcaster) {
+  geometry_msgs::TransformStamped tool;
+  tool.header.stamp = ros::Time::now();
+  tool.header.frame_id = "world";
+  tool.child_frame_id = "tool";
+  tool.transform.translation.x = 0.1;
+  tool.transform.rotation.w = 1.0;
+  broadcaster.sendTransform(tool);
+}
+
+/// Latches `bar` on /particles in frame "world"; keep the publisher alive while the node needs it.
+inline ros::Publisher publishParticles(ros::NodeHandle& node, const demnerf::core::ParticleCloud& bar) {
+  ros::Publisher particles = node.advertise<sensor_msgs::PointCloud2>("/particles", 1, true);
+  std_msgs::Header header;
+  header.frame_id = "world";
+  header.stamp = ros::Time::now();
+  particles.publish(dem_nerf::toPointCloud2(bar, header));
+  return particles;
+}
+
+/// The half-space x <= x0 (normal_x = 1) or x >= x0 (normal_x = -1).
+inline dem_nerf::Region halfspace(double x0, double normal_x) {
+  dem_nerf::Region region;
+  region.type = dem_nerf::Region::HALFSPACE;
+  region.pose.position.x = x0;
+  region.pose.orientation.w = 1.0;
+  region.normal.x = normal_x;
+  return region;
 }
 
 }  // namespace dem_nerf_test

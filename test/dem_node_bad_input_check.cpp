@@ -20,14 +20,7 @@ namespace {
 
 using dem_nerf_test::StatusRecorder;
 
-dem_nerf::Region halfspace(double x, double normal_x) {
-  dem_nerf::Region region;
-  region.type = dem_nerf::Region::HALFSPACE;
-  region.pose.position.x = x;
-  region.pose.orientation.w = 1.0;
-  region.normal.x = normal_x;
-  return region;
-}
+using dem_nerf_test::halfspace;
 
 // A small downward pull on the bar's free end; the clamp comes from the node's scenario.
 dem_nerf::LoadCase tipLoad() {

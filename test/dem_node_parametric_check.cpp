@@ -93,18 +93,8 @@ class ParametricCheck {
 TEST(DemNodeParametric, ScaledWrenchesAreAnsweredWithoutTraining) {
   ros::NodeHandle node;
   tf2_ros::StaticTransformBroadcaster broadcaster;
-  geometry_msgs::TransformStamped tool;
-  tool.header.stamp = ros::Time::now();
-  tool.header.frame_id = "world";
-  tool.child_frame_id = "tool";
-  tool.transform.translation.x = 0.1;
-  tool.transform.rotation.w = 1.0;
-  broadcaster.sendTransform(tool);
-  ros::Publisher particles = node.advertise<sensor_msgs::PointCloud2>("/particles", 1, true);
-  std_msgs::Header header;
-  header.frame_id = "world";
-  header.stamp = ros::Time::now();
-  particles.publish(dem_nerf::toPointCloud2(dem_nerf_test::barParticles(), header));
+  dem_nerf_test::broadcastToolFrame(broadcaster);
+  ros::Publisher particles = dem_nerf_test::publishParticles(node, dem_nerf_test::barParticles());
   ros::WallDuration(1.0).sleep();  // let dem_node take the particles first
 
   ParametricCheck check;

@@ -65,14 +65,7 @@ geometry_msgs::Pose toPose(const Eigen::Isometry3d& pose) {
   return message;
 }
 
-dem_nerf::Region halfspace(double x, double normal_x) {
-  dem_nerf::Region region;
-  region.type = dem_nerf::Region::HALFSPACE;
-  region.pose.position.x = x;
-  region.pose.orientation.w = 1.0;
-  region.normal.x = normal_x;
-  return region;
-}
+using dem_nerf_test::halfspace;
 
 // Clamp x <= 0.015 m, pull the surface at x >= 0.105 m down with `force_z` N.
 dem_nerf::LoadCase cantilever(double force_z) {

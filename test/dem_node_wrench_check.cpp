@@ -13,36 +13,10 @@
 #include <mutex>
 #include <optional>
 
+#include "check_helpers.hpp"
 #include "conversions/cloud_conversions.hpp"
 
 namespace {
-
-// A 0.1 x 0.02 x 0.02 m bar sampled every 5 mm; the outer layer carries normals and areas.
-demnerf::core::ParticleCloud barParticles() {
-  const double h = 0.005;
-  demnerf::core::ParticleCloud cloud;
-  for (int i = 0; i <= 20; ++i) {
-    for (int j = 0; j <= 4; ++j) {
-      for (int k = 0; k <= 4; ++k) {
-        const Eigen::Vector3d p(i * h, -0.01 + j * h, -0.01 + k * h);
-        Eigen::Vector3d normal = Eigen::Vector3d::Zero();
-        if (i == 0) normal.x() = -1;
-        if (i == 20) normal.x() = 1;
-        if (j == 0) normal.y() = -1;
-        if (j == 4) normal.y() = 1;
-        if (k == 0) normal.z() = -1;
-        if (k == 4) normal.z() = 1;
-        cloud.positions.push_back(p);
-        cloud.volumes.push_back(h * h * h);
-        const bool surface = !normal.isZero();
-        cloud.normals.push_back(surface ? Eigen::Vector3d(normal.normalized()) : normal);
-        cloud.areas.push_back(surface ? h * h : 0.0);
-        cloud.colors.push_back({200, 200, 200});
-      }
-    }
-  }
-  return cloud;
-}
 
 TEST(DemNodeWrench, TheTipFollowsTheForceAndTheClampHolds) {
   ros::NodeHandle node;
@@ -54,20 +28,9 @@ TEST(DemNodeWrench, TheTipFollowsTheForceAndTheClampHolds) {
         displaced = *message;
       });
   tf2_ros::StaticTransformBroadcaster broadcaster;
-  geometry_msgs::TransformStamped tool;
-  tool.header.stamp = ros::Time::now();
-  tool.header.frame_id = "world";
-  tool.child_frame_id = "tool";
-  tool.transform.translation.x = 0.1;
-  tool.transform.rotation.w = 1.0;
-  broadcaster.sendTransform(tool);
-
-  ros::Publisher particles = node.advertise<sensor_msgs::PointCloud2>("/particles", 1, true);
-  std_msgs::Header header;
-  header.frame_id = "world";
-  header.stamp = ros::Time::now();
-  const demnerf::core::ParticleCloud bar = barParticles();
-  particles.publish(dem_nerf::toPointCloud2(bar, header));
+  dem_nerf_test::broadcastToolFrame(broadcaster);
+  const demnerf::core::ParticleCloud bar = dem_nerf_test::barParticles(0.005);
+  ros::Publisher particles = dem_nerf_test::publishParticles(node, bar);
   ros::Publisher wrenches = node.advertise<geometry_msgs::WrenchStamped>("/dem_node/wrench", 1, true);
   ros::WallDuration(1.0).sleep();  // let dem_node take the particles first
   geometry_msgs::WrenchStamped wrench;

@@ -13,38 +13,11 @@
 #include <cmath>
 #include <mutex>
 
+#include "check_helpers.hpp"
+
 namespace {
 
-class StatusWatcher {
- public:
-  StatusWatcher(ros::NodeHandle& node, const std::string& topic)
-      : subscriber_(node.subscribe(topic, 50, &StatusWatcher::onStatus, this)) {}
-
-  /// Waits until a status with stage "error" whose message contains `text` arrives.
-  bool waitForError(const std::string& text, double seconds) {
-    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(seconds);
-    while (ros::ok() && ros::WallTime::now() < deadline) {
-      ros::spinOnce();
-      {
-        std::lock_guard<std::mutex> lock(mutex_);
-        for (const auto& status : received_) {
-          if (status.stage == "error" && status.message.find(text) != std::string::npos) return true;
-        }
-      }
-      ros::WallDuration(0.02).sleep();
-    }
-    return false;
-  }
-
- private:
-  void onStatus(const dem_nerf::TrainingStatusConstPtr& status) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    received_.push_back(*status);
-  }
-  ros::Subscriber subscriber_;
-  std::mutex mutex_;
-  std::vector<dem_nerf::TrainingStatus> received_;
-};
+using dem_nerf_test::StatusRecorder;
 
 void publishCameraPair(ros::Publisher& images, ros::Publisher& infos, const std::string& encoding, int width,
                        int info_width) {
@@ -84,7 +57,7 @@ TEST(NodeInterfaces, ServicesAnswerWithAClearMessage) {
 
 TEST(NodeInterfaces, BadImagesAreReportedAndTheNodeKeepsAnswering) {
   ros::NodeHandle node;
-  StatusWatcher status(node, "/nerf_node/status");
+  StatusRecorder status(node, "/nerf_node/status");
   ros::Publisher images = node.advertise<sensor_msgs::Image>("/camera/image_raw", 1, true);
   ros::Publisher infos = node.advertise<sensor_msgs::CameraInfo>("/camera/camera_info", 1, true);
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(10);
@@ -96,7 +69,7 @@ TEST(NodeInterfaces, BadImagesAreReportedAndTheNodeKeepsAnswering) {
   auto sendUntilReported = [&](const std::string& encoding, int info_width, const std::string& expected) {
     for (int attempt = 0; attempt < 10; ++attempt) {
       publishCameraPair(images, infos, encoding, 8, info_width);
-      if (status.waitForError(expected, 1.5)) return true;
+      if (!status.waitForError(expected, 1.5).empty()) return true;
     }
     return false;
   };
@@ -111,13 +84,13 @@ TEST(NodeInterfaces, BadImagesAreReportedAndTheNodeKeepsAnswering) {
 
 TEST(NodeInterfaces, NanWrenchIsReportedAndTheNodeKeepsAnswering) {
   ros::NodeHandle node;
-  StatusWatcher status(node, "/dem_node/status");
+  StatusRecorder status(node, "/dem_node/status");
   ros::Publisher wrenches = node.advertise<geometry_msgs::WrenchStamped>("/dem_node/wrench", 1, true);
   geometry_msgs::WrenchStamped wrench;
   wrench.header.frame_id = "world";
   wrench.wrench.force.x = std::nan("");
   wrenches.publish(wrench);
-  EXPECT_TRUE(status.waitForError("NaN", 10));
+  EXPECT_FALSE(status.waitForError("NaN", 10).empty());
   dem_nerf::Solve solve;
   EXPECT_TRUE(ros::service::call("/dem_node/solve", solve));
 }

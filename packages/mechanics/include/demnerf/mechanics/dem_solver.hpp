@@ -58,8 +58,9 @@ struct DemConfig {
   int grid_degree = 2;  ///< 1 (trilinear), 2 (C1 quadratic) or 3 (C2 cubic)
   int grid_newton_iterations = 30;
   /// Newton has no jitter (below): for its fixed quadrature, particles within this many grid
-  /// cells of a fixture are split into 2 x 2 x 2 sub-points, which close the gap between the
-  /// fixture and the first particle layer where a field could otherwise hide a displacement ramp.
+  /// cells of a fixture's or load's region boundary are split into 2 x 2 x 2 sub-points, which
+  /// close the gap between the region and the first particle layer where a field could otherwise
+  /// hide a displacement ramp.
   double grid_refine_band = 1.0;
   /// The grid Newton's quadrature weights are (1 - f) volumes + f energyWeights() with f this
   /// share: surface particles carry a small part of their neighbours' volume. Without it, grid nodes
