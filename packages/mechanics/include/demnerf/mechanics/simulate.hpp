@@ -10,6 +10,7 @@
 #include "demnerf/mechanics/dem_solver.hpp"
 #include "demnerf/mechanics/fem_solver.hpp"
 #include "demnerf/mechanics/pinn_solver.hpp"
+#include "demnerf/mechanics/solve_control.hpp"
 #include "demnerf/mechanics/voxel_mesh.hpp"
 
 namespace demnerf::mechanics {
@@ -36,6 +37,8 @@ struct SimulateOptions {
   /// or voxels whose centres lie inside it (staircased faces; no closedness check).
   enum class Mesher { kCgal, kVoxel };
   Mesher mesher = Mesher::kCgal;
+  /// Time budget, progress sink and cancel flag of the solve (every solver honours them).
+  SolveControl control;
 };
 
 struct SimulationOutcome {
