@@ -63,7 +63,9 @@ void DemSession::setParticles(core::ParticleCloud cloud) {
   solver_.reset();
 }
 
-DemSessionAnswer DemSession::answer(const core::Scenario& scenario) {
+DemSessionAnswer DemSession::answer(const core::Scenario& scenario) { return answer(scenario, SolveControl{}); }
+
+DemSessionAnswer DemSession::answer(const core::Scenario& scenario, const SolveControl& control) {
   if (!cloud_) throw core::Error("DEM: no particles yet (the particle cloud has not arrived)");
   const auto start = std::chrono::steady_clock::now();
   DemSessionAnswer answer;
@@ -86,6 +88,7 @@ DemSessionAnswer DemSession::answer(const core::Scenario& scenario) {
         answer.mode = "cold";
         solver_ = std::make_unique<DemSolver>(*cloud_, scenario, config_);
       }
+      solver_->setControl(control);
       answer.outcome.energy = solver_->solve().energy;
       answer.outcome.field = solver_->result();
       trained_ = scenario;

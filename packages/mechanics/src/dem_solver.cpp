@@ -15,6 +15,7 @@
 #include "demnerf/core/error.hpp"
 #include "demnerf/mechanics/boundary_conditions.hpp"
 #include "demnerf/mechanics/bspline_grid.hpp"
+#include "demnerf/mechanics/cell_quadrature.hpp"
 #include "demnerf/mechanics/dirichlet_lift.hpp"
 #include "demnerf/mechanics/grid_field_newton.hpp"
 #include "demnerf/mechanics/material.hpp"
@@ -86,6 +87,30 @@ struct DemSolver::Impl {
   std::vector<Eigen::Vector3d> last_good_positions;
   std::function<void(int)> progress;
   int progress_every = 0;
+  // The caller's budget and listeners (setControl), the running solve's clock, the load fraction
+  // of the last good state and the last grid Newton's outcome (energy and residual of the answer).
+  SolveControl control;
+  std::unique_ptr<SolveClock> clock;
+  double done_fraction = 0.0;
+  GridNewtonOutcome last_grid;
+
+  std::string keptState() const {
+    std::ostringstream text;
+    text << "the state at load fraction " << done_fraction;
+    return text.str();
+  }
+  // Progress and the stop checks of a running solve (a no-op outside solve()).
+  void tick(const char* phase, double scale, int iterations, double energy, double residual) {
+    if (!clock) return;
+    SolveProgress p;
+    p.phase = phase;
+    p.load_fraction = scale;
+    p.iteration = iterations;
+    p.energy = energy;
+    p.residual = residual;
+    clock->report(p);
+    clock->check(keptState());
+  }
   // Feature grid (DemConfig::grid_cell): the basis, its coefficients (a parameter, in units of the
   // output scale like the MLP's output) and the supports of the fixed point sets.
   struct GridSupport {
@@ -402,7 +427,7 @@ struct DemSolver::Impl {
   // grid quadrature: the best field in MLP + grid with the MLP's share fixed.
   // False when Newton does not converge within grid_newton_iterations (the load step then counts as
   // failed and is halved).
-  bool solveGrid(double scale) {
+  bool solveGrid(double scale, int& iterations) {
     torch::NoGradGuard guard;
     GridFieldProblem pb;
     pb.points = gq_points;
@@ -428,11 +453,24 @@ struct DemSolver::Impl {
     Eigen::MatrixXd C = toEigen(grid_coef.detach()) * out_scale;
     GridNewtonConfig newton;
     newton.max_iterations = config.grid_newton_iterations;
-    const GridNewtonOutcome outcome = minimiseGridField(pb, *material, *grid, C, newton);
+    const int before = iterations;
+    newton.on_iteration = [&](int it, double energy, double residual) {
+      tick("newton", scale, before + it, energy, residual);
+    };
+    GridNewtonOutcome outcome;
+    try {
+      outcome = minimiseGridField(pb, *material, *grid, C, newton);
+    } catch (...) {
+      setGridCoefficients(C / out_scale);
+      throw;
+    }
+    iterations += outcome.iterations;
+    last_grid = outcome;
     setGridCoefficients(C / out_scale);
     if (config.verbose)
       std::cerr << "dem: grid Newton " << outcome.iterations << " its, energy " << outcome.energy << ", min J "
-                << outcome.min_J << (outcome.converged ? "" : " (not converged)") << "; assembly "
+                << outcome.min_J << ", residual " << outcome.residual << (outcome.converged ? "" : " (not converged)")
+                << "; assembly "
                 << outcome.assembly_seconds << " s, factorisation " << outcome.factorisation_seconds
                 << " s, line search " << outcome.line_search_seconds << " s\n";
     return outcome.converged;
@@ -450,6 +488,25 @@ struct DemSolver::Impl {
   // load split into 2 x 2 x 2 sub-points of their cube (Newton has no jitter to catch a ramp
   // between a region and the first particle layer).
   void buildGridQuadrature() {
+    if (config.grid_quadrature == DemConfig::GridQuadrature::kCells) {
+      CellQuadratureConfig cq;
+      cq.points_per_axis = config.grid_gauss_points;
+      cq.boundary_levels = config.grid_boundary_levels;
+      CellQuadrature q = cellQuadrature(cloud, *grid, cq);
+      gq_points = std::move(q.points);
+      gq_volume = std::move(q.weights);
+    } else {
+      buildParticleGridQuadrature();
+    }
+    gq_lift = dirichletLift(scenario, gq_points, length);
+    gq_x = toTensor(gq_points, dtype);
+    gq_lift_t[0] = toTensor(gq_lift.g, dtype);
+    gq_lift_t[1] = toTensor(gq_lift.grad_g, dtype);
+    gq_lift_t[2] = toTensor(gq_lift.D, dtype);
+    gq_lift_t[3] = toTensor(gq_lift.grad_D, dtype);
+  }
+
+  void buildParticleGridQuadrature() {
     // (1 - f) volumes + f energyWeights: both sum to the body's volume, so a homogeneous state
     // keeps its exact energy.
     const double f = config.grid_surface_share;
@@ -487,12 +544,6 @@ struct DemSolver::Impl {
         gq_volume.push_back(weight[i]);
       }
     }
-    gq_lift = dirichletLift(scenario, gq_points, length);
-    gq_x = toTensor(gq_points, dtype);
-    gq_lift_t[0] = toTensor(gq_lift.g, dtype);
-    gq_lift_t[1] = toTensor(gq_lift.grad_g, dtype);
-    gq_lift_t[2] = toTensor(gq_lift.D, dtype);
-    gq_lift_t[3] = toTensor(gq_lift.grad_D, dtype);
   }
 
   // Parametric mode: one Adam run over the whole load range. Each step draws
@@ -517,6 +568,8 @@ struct DemSolver::Impl {
         double jmin = 0;
         Tensor l = loss(s, nullptr, &jmin, config.jitter) / (s * s + floor * floor);
         if (!std::isfinite(l.item<double>()) || !(jmin > 0)) return false;
+        if (j == 0) tick("adam", s, iterations, l.item<double>() * energy_scale * (s * s + floor * floor),
+                         std::numeric_limits<double>::quiet_NaN());
         total = j == 0 ? l : total + l;
       }
       (total / k).backward();
@@ -535,6 +588,35 @@ struct DemSolver::Impl {
     return true;
   }
 
+  std::string gridFailureAdvice() const {
+    std::ostringstream text;
+    text << "The feature grid's Newton solve (cells of " << config.grid_cell << " m) did not reach an equilibrium"
+         << (last_grid.min_J > 0 ? "" : " or inverted the material") << " (last residual " << last_grid.residual
+         << ", smallest det F " << last_grid.min_J
+         << "). Likely causes: a load too large for the material (try a smaller load or more load_steps), a fixture "
+            "that holds too little of the body, or a grid too coarse for the body's thinnest part (raise "
+            "grid_body_cells or lower grid_cell); grid_newton_iterations raises the iteration cap.";
+    return text.str();
+  }
+
+  // The equilibrium checks an answer must pass before solve() reports success: the grid Newton's
+  // first-order condition, and a potential energy no higher than the undeformed state's (0 J when
+  // no fixture prescribes a displacement: any minimiser does at least as well as u = 0).
+  void checkAnswer(const DemReport& report) const {
+    if (grid && !(last_grid.converged && report.residual <= 10 * GridNewtonConfig{}.residual_tolerance))
+      throw SolveError(SolveFailure::kNotConverged,
+                       "DEM: the answer is not an equilibrium (relative residual " + std::to_string(report.residual) +
+                           "); " + gridFailureAdvice());
+    bool prescribed = false;
+    for (const core::Fixture& f : scenario.fixtures) prescribed = prescribed || f.displacement.norm() > 0;
+    const double slack = 1e-9 * energy_scale + 1e-12;
+    if (!prescribed && !(report.energy <= slack))
+      throw SolveError(SolveFailure::kNotConverged,
+                       "DEM: the answer's potential energy " + std::to_string(report.energy) +
+                           " J is above the undeformed state's 0 J, so it is no minimum under these dead loads; " +
+                           (grid ? gridFailureAdvice() : std::string("train longer (adam_iterations) or use the feature grid")));
+  }
+
   // Trains at one load fraction; false when the loss turns NaN or a particle inverts.
   bool train(double scale, int& iterations, DemReport& report) {
     auto params = parameters();
@@ -542,7 +624,7 @@ struct DemSolver::Impl {
     fraction = scale;  // what predict() shows from a progress callback
     const bool newton = newtonEnabled();
     if (newton) solveOutputLayer(scale);
-    if (grid && !solveGrid(scale)) return false;
+    if (grid && !solveGrid(scale, iterations)) return false;
     if (config.adam_iterations > 0) {
       torch::optim::Adam adam(params, torch::optim::AdamOptions(config.adam_learning_rate));
       const int n = config.adam_iterations;
@@ -554,7 +636,9 @@ struct DemSolver::Impl {
           rescaleOutput(scale);
         adam.zero_grad();
         Tensor l = loss(scale, nullptr, &jmin, config.jitter);
-        if (!std::isfinite(l.item<double>()) || !(jmin > 0)) return false;
+        const double value = l.item<double>();
+        if (!std::isfinite(value) || !(jmin > 0)) return false;
+        tick("adam", scale, iterations, value * energy_scale, std::numeric_limits<double>::quiet_NaN());
         l.backward();
         adam.step();
         lr *= decay;
@@ -566,7 +650,7 @@ struct DemSolver::Impl {
       rescaled = true;
     }
     if (newton) solveOutputLayer(scale);
-    if (grid && config.adam_iterations > 0 && !solveGrid(scale)) return false;
+    if (grid && config.adam_iterations > 0 && !solveGrid(scale, iterations)) return false;
     if (config.lbfgs_iterations > 0) {
       const auto before = snapshot();
       double e_before = 0;
@@ -587,6 +671,7 @@ struct DemSolver::Impl {
         double jm = 0;
         Tensor l = loss(scale, nullptr, &jm);
         reportProgress(++iterations);
+        tick("lbfgs", scale, iterations, l.item<double>() * energy_scale, std::numeric_limits<double>::quiet_NaN());
         if (!std::isfinite(l.item<double>()) || !(jm > 0)) {
           // Tell the line search this point is unacceptable without poisoning its history.
           return torch::full({}, 1e30, torch::TensorOptions().dtype(dtype));
@@ -637,19 +722,25 @@ DemSolver::DemSolver(core::ParticleCloud cloud, const core::Scenario& scenario, 
                       std::to_string(config.load_range_max) +
                       "] must be finite, ordered and contain 1 (the scenario's own load, which result() reports)");
   if (config.grid_cell < 0 || !std::isfinite(config.grid_cell) || config.grid_spacings < 0 ||
-      !std::isfinite(config.grid_spacings))
-    throw core::Error("DEM grid_cell and grid_spacings must be >= 0 (0: no feature grid)");
+      !std::isfinite(config.grid_spacings) || !(config.grid_body_cells >= 0) || !std::isfinite(config.grid_body_cells))
+    throw core::Error("DEM grid_cell, grid_spacings and grid_body_cells must be finite and >= 0 (0: no feature grid)");
   if (!(config.grid_surface_share >= 0 && config.grid_surface_share <= 1) || !(config.grid_refine_band >= 0) ||
       !std::isfinite(config.grid_refine_band))
     throw core::Error("DEM grid_surface_share must lie in [0, 1] and grid_refine_band be finite and >= 0");
   const double spacing = interiorParticleSpacing(cloud);
   if (config.grid_cell == 0 && config.grid_spacings > 0) config.grid_cell = config.grid_spacings * spacing;
+  if (config.grid_cell == 0 && config.grid_body_cells > 0) {
+    double volume = 0.0;
+    for (double v : cloud.volumes) volume += std::max(v, 0.0);
+    // Never finer than the particles, which resolve the body's shape and carry its loads.
+    config.grid_cell = std::max(std::cbrt(volume / config.grid_body_cells), spacing);
+  }
   if (config.grid_cell > 0 && (config.parametric || config.boundary != DemConfig::Boundary::kExact ||
                                config.output_newton))
     throw core::Error(
         "the DEM feature grid (grid_cell > 0) needs the exact boundary mode and works without parametric mode and "
         "the output-layer Newton; turn those off or set grid_cell = 0");
-  if (config.grid_cell > 0) {
+  if (config.grid_cell > 0 && config.grid_quadrature == DemConfig::GridQuadrature::kParticles) {
     // The particles are the grid's quadrature: a cell of about one particle spacing has modes the
     // particles cannot see, and Newton finds them (a twisted bar: 80 % error at 1 spacing).
     if (config.grid_cell < 1.5 * spacing)
@@ -657,6 +748,13 @@ DemSolver::DemSolver(core::ParticleCloud cloud, const core::Scenario& scenario, 
                         std::to_string(spacing) + " m): the particles cannot integrate the grid's finer modes; use " +
                         "about two spacings (" + std::to_string(2 * spacing) + " m) or more");
   }
+  if (config.grid_cell > 0 && config.grid_quadrature == DemConfig::GridQuadrature::kCells &&
+      config.grid_cell < spacing)
+    // The cells' quadrature resolves the body to about one particle spacing, and the loads act on
+    // the surface particles: finer cells than that would see single particles as point loads.
+    throw core::Error("DEM grid_cell " + std::to_string(config.grid_cell) + " m is finer than the particle spacing (" +
+                      std::to_string(spacing) + " m), which resolves the body and its loads; use a coarser cell " +
+                      "or finer particles");
   if (config.load_steps < 0) throw core::Error("DEM load_steps must be >= 0 (0: the scenario's)");
   m.config = config;
   m.dtype = config.double_precision ? torch::kFloat64 : torch::kFloat32;
@@ -696,7 +794,10 @@ DemSolver::DemSolver(core::ParticleCloud cloud, const core::Scenario& scenario, 
     in = out;
   }
   if (config.grid_cell > 0) {
-    m.grid = std::make_unique<BsplineGrid>(lo, hi, config.grid_cell, config.grid_degree);
+    // Half a spacing of margin: a lattice cloud whose outer particles carry whole cells of volume
+    // describes a body that far beyond its particles (cell_quadrature.hpp moves the surface out).
+    const Eigen::Vector3d margin = Eigen::Vector3d::Constant(0.5 * spacing);
+    m.grid = std::make_unique<BsplineGrid>(lo - margin, hi + margin, config.grid_cell, config.grid_degree);
     if (m.grid->nodeCount() > 4000000)
       throw core::Error("DEM feature grid of " + std::to_string(m.grid->nodeCount()) + " nodes: grid_cell " +
                         std::to_string(config.grid_cell) + " m is far too fine for a body of " +
@@ -807,33 +908,49 @@ DemReport DemSolver::solve() {
   Impl& m = *impl_;
   const auto start = std::chrono::steady_clock::now();
   DemReport report;
-  if (m.config.parametric) {
-    const auto saved = m.snapshot();
-    if (!m.trainParametric(report.iterations)) {
-      m.restore(saved);
-      throw core::Error("DEM (parametric): training over load fractions [" + std::to_string(m.config.load_range_min) +
-                        ", " + std::to_string(m.config.load_range_max) +
-                        "] inverted particles (det F <= 0) or diverged (NaN); narrow the range or lower the learning rate");
+  m.clock = std::make_unique<SolveClock>(m.control, "dem");
+  m.done_fraction = 0.0;
+  m.last_grid = GridNewtonOutcome{};
+  std::vector<Tensor> saved = m.snapshot();
+  try {
+    if (m.config.parametric) {
+      if (!m.trainParametric(report.iterations)) {
+        m.restore(saved);
+        throw SolveError(SolveFailure::kInverted,
+                         "DEM (parametric): training over load fractions [" + std::to_string(m.config.load_range_min) +
+                             ", " + std::to_string(m.config.load_range_max) +
+                             "] inverted particles (det F <= 0) or diverged (NaN); narrow the range or lower the "
+                             "learning rate");
+      }
+      report.load_steps = 1;
+    } else {
+      report.load_steps = runAdaptiveLoadSteps(
+          m.config.load_steps > 0 ? m.config.load_steps : m.grid ? 1 : m.scenario.load_steps, m.config.max_halvings,
+          [&](double target) {
+            saved = m.snapshot();
+            const bool ok = m.train(target, report.iterations, report);
+            if (ok) m.done_fraction = target;
+            return ok;
+          },
+          [&](double done) {
+            m.restore(saved);
+            m.fraction = done;
+          },
+          "DEM", m.grid ? m.gridFailureAdvice() : "Use more load_steps or a smaller load.", m.config.verbose);
     }
-    report.load_steps = 1;
-  } else {
-    std::vector<Tensor> saved;
-    report.load_steps = runAdaptiveLoadSteps(
-        m.config.load_steps > 0 ? m.config.load_steps : m.grid ? 1 : m.scenario.load_steps, m.config.max_halvings,
-        [&](double target) {
-          saved = m.snapshot();
-          return m.train(target, report.iterations, report);
-        },
-        [&](double done) {
-          m.restore(saved);
-          m.fraction = done;
-        },
-        "DEM",
-        m.grid ? "Use more load_steps or a smaller load; with the feature grid a Newton solve that does not converge "
-                 "fails its step too: try a coarser grid_cell (about two particle spacings) or more grid_newton_iterations."
-               : "Use more load_steps or a smaller load.",
-        m.config.verbose);
+  } catch (const SolveError&) {
+    m.restore(saved);
+    m.fraction = m.done_fraction;
+    m.clock.reset();
+    throw;
+  } catch (const core::Error& e) {
+    // The load stepping gave up: every step size tried inverted, diverged or did not converge.
+    m.fraction = m.done_fraction;
+    m.clock.reset();
+    throw SolveError(m.grid && m.last_grid.min_J > 0 ? SolveFailure::kNotConverged : SolveFailure::kInverted,
+                     e.what());
   }
+  m.clock.reset();
   m.fraction = 1.0;
   report.output_scale = m.out_scale;
   double energy = 0, jmin = 0;
@@ -841,13 +958,23 @@ DemReport DemSolver::solve() {
     torch::NoGradGuard guard;
     Tensor l = m.loss(1.0, &energy, &jmin);
     if (!std::isfinite(l.item<double>()) || !(jmin > 0))
-      throw core::Error("DEM: the trained field is not admissible (NaN or det F <= 0)");
+      throw SolveError(SolveFailure::kInverted, "DEM: the trained field is not admissible (NaN or det F <= 0)");
+  }
+  report.min_J = jmin;
+  report.residual = std::numeric_limits<double>::quiet_NaN();
+  if (m.grid) {
+    // The answer is the grid Newton's: its energy and residual on its own quadrature.
+    energy = m.last_grid.energy;
+    report.residual = m.last_grid.residual;
+    report.min_J = m.last_grid.min_J;
   }
   report.energy = energy;
-  report.min_J = jmin;
+  m.checkAnswer(report);
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return report;
 }
+
+void DemSolver::setControl(const SolveControl& control) { impl_->control = control; }
 
 std::vector<Eigen::Vector3d> DemSolver::predict(const std::vector<Eigen::Vector3d>& points) const {
   return predict(points, impl_->fraction);

@@ -137,6 +137,7 @@ class GridFieldEnergy {
   }
 
   double work(const Eigen::VectorXd& c) const { return external_.dot(c) + external_offset_; }
+  double externalNorm() const { return external_.norm(); }
 
  private:
   Eigen::Matrix3d deformationGradient(const Eigen::VectorXd& c, long q) const {
@@ -317,17 +318,50 @@ GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const Hyper
   Eigen::VectorXd gradient;
   Eigen::SparseMatrix<double> hessian;
   ShiftedCholesky solver;
-  for (int it = 0; it < config.max_iterations; ++it) {
+  const auto store = [&] {
+    for (std::size_t l = 0; l < active.size(); ++l) C.row(active[l]) = c.segment<3>(3 * l).transpose();
+  };
+  // The load the residual is measured against: the external forces, or (a prescribed displacement
+  // alone) the internal forces of the start.
+  double load = energy.externalNorm();
+  int rounding_steps = 0;
+  for (int it = 0;; ++it) {
     auto start = std::chrono::steady_clock::now();
     energy.derivatives(c, gradient, hessian);
     out.assembly_seconds += secondsSince(start);
+    if (it == 0) load = std::max(load, gradient.norm());
+    out.residual = load > 0 ? gradient.norm() / load : 0.0;
+    if (config.on_iteration) {
+      try {
+        config.on_iteration(it, current, out.residual);
+      } catch (...) {
+        store();
+        throw;
+      }
+    }
+    if (out.residual <= config.residual_tolerance) {
+      out.converged = true;
+      break;
+    }
+    if (it >= config.max_iterations) break;
     start = std::chrono::steady_clock::now();
     const Eigen::VectorXd step = solver.solve(hessian, -gradient, config.initial_shift);
     out.factorisation_seconds += secondsSince(start);
     const double decrement = -gradient.dot(step);
-    if (!(decrement > config.tolerance * std::max(std::abs(current), strain))) {
-      out.converged = std::isfinite(decrement);
-      break;
+    if (!(decrement > 0) || !std::isfinite(decrement)) break;
+    // Near the minimum the energy cannot resolve a Newton step (its decrease is below the rounding
+    // of the energy): the full step is taken on the residual's word, if it stays admissible.
+    if (decrement <= config.tolerance * std::max(std::abs(current), strain)) {
+      double trial_strain = 0.0, trial_J = 0.0;
+      const Eigen::VectorXd trial = c + step;
+      const double e = energy.energy(trial, &trial_strain, &trial_J);
+      if (!std::isfinite(e) || ++rounding_steps > 3) break;
+      c = trial;
+      current = e;
+      strain = trial_strain;
+      out.min_J = trial_J;
+      ++out.iterations;
+      continue;
     }
     // Backtracking (Armijo) line search; inverted states have infinite energy and are rejected.
     bool moved = false;
@@ -349,7 +383,7 @@ GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const Hyper
     ++out.iterations;
     if (!moved) break;
   }
-  for (std::size_t l = 0; l < active.size(); ++l) C.row(active[l]) = c.segment<3>(3 * l).transpose();
+  store();
   out.energy = current;
   out.strain_energy = strain;
   return out;

@@ -36,6 +36,7 @@ SimulationOutcome simulate(const core::ParticleCloud& cloud, const core::Scenari
   switch (solver) {
     case SolverChoice::kDem: {
       DemSolver dem(cloud, scenario, options.dem);
+      dem.setControl(options.control);
       out.energy = dem.solve().energy;
       out.field = dem.result();
       if (!options.dem_model_path.empty()) saveDemModel(dem, options.dem_model_path);

@@ -39,6 +39,8 @@ class DemSession {
   /// Solves the scenario on the current particles (core::Error when there are none, for bad
   /// input, or a failed solve; after a failed solve the next answer starts cold).
   DemSessionAnswer answer(const core::Scenario& scenario);
+  /// The same within a time budget, with progress and a cancel flag (mechanics::SolveError then).
+  DemSessionAnswer answer(const core::Scenario& scenario, const SolveControl& control);
 
  private:
   DemConfig config_;

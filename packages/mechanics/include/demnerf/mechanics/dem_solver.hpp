@@ -10,6 +10,7 @@
 
 #include "demnerf/core/ply.hpp"
 #include "demnerf/core/scenario.hpp"
+#include "demnerf/mechanics/solve_control.hpp"
 
 namespace demnerf::mechanics {
 
@@ -68,6 +69,19 @@ struct DemConfig {
   /// particles of the T-bar: one corner particle moved 287 mm in a 60 mm twist); energyWeights' full
   /// share (f = 1) overstates a twisted section's surface strain (6 % error). README "Mechanics".
   double grid_surface_share = 0.04;
+  /// The grid Newton's volume quadrature. kCells (default): Gauss points in the grid's cells where
+  /// the body is, cut cells subdivided (cell_quadrature.hpp); independent of the sampler, the
+  /// particle spacing and the particles' volumes, which is what makes the answer the same on
+  /// random, Poisson-disk, grid and NeRF-extracted particles. kParticles: the particles' own
+  /// volumes (midpoint rule; grid_surface_share and grid_refine_band apply).
+  enum class GridQuadrature { kCells, kParticles };
+  GridQuadrature grid_quadrature = GridQuadrature::kCells;
+  int grid_gauss_points = 2;      ///< Gauss points per axis and cell (kCells)
+  int grid_boundary_levels = 2;   ///< times a cut cell is split in 2 x 2 x 2 (kCells)
+  /// With grid_cell and grid_spacings 0: a grid whose cells hold the body's volume this many times,
+  /// cell = (V / grid_body_cells)^(1/3), so the grid follows the body and not the particles (but
+  /// never finer than the particle spacing); 0: no grid unless grid_cell or grid_spacings asks.
+  double grid_body_cells = 0.0;
   /// Load steps (0: the scenario's, or 1 with the feature grid: Newton with its line search takes
   /// the T-bar twist in one, 4 s, where the scenario's 4 steps take 9 s; a failed step is halved).
   int load_steps = 0;
@@ -119,6 +133,9 @@ struct DemReport {
   int iterations = 0;         ///< optimiser iterations over all load steps
   int load_steps = 0;         ///< load steps taken, halvings included
   double output_scale = 0.0;  ///< displacement scale of the network output after rescaling (m)
+  /// |discrete weak-form residual| / |load| at the answer: the grid Newton's gradient in the grid
+  /// coefficients (NaN without a feature grid: an MLP is never at a stationary point of its loss).
+  double residual = 0.0;
   bool polish_rejected = false;  ///< an L-BFGS polish was undone (exploit guard)
 };
 
@@ -145,10 +162,13 @@ class DemSolver {
   DemSolver(DemSolver&&) noexcept;
 
   /// Trains over the scenario's load steps, warm-started from the current network (a second
-  /// call after changing nothing converges at once). Throws core::Error when the solve inverts
-  /// particles or diverges even with the smallest load step; the network then keeps the last good
-  /// state.
+  /// call after changing nothing converges at once). Throws SolveError when the solve inverts
+  /// particles, diverges or does not converge even with the smallest load step, when the answer
+  /// fails its equilibrium checks, or when the control's time limit or cancel flag stops it; the
+  /// network then keeps the last good state.
   DemReport solve();
+  /// Time budget, progress sink and cancel flag of the next solve() calls.
+  void setControl(const SolveControl& control);
   /// Replaces the scenario's loads and fixtures (same material) for a warm-started re-solve.
   void setScenario(const core::Scenario& scenario);
   /// Displacement at arbitrary points, at the load the network was trained for.

@@ -10,6 +10,7 @@
 // steps for the same field. Eigen only: no torch in this file.
 
 #include <Eigen/Core>
+#include <functional>
 #include <vector>
 
 #include "demnerf/mechanics/bspline_grid.hpp"
@@ -33,11 +34,20 @@ struct GridFieldProblem {
 
 struct GridNewtonConfig {
   int max_iterations = 30;
-  /// Stops when the Newton decrement is below this fraction of max(|Pi|, strain energy).
+  /// Converged when the residual (the energy's gradient in C, the discrete weak form) is below
+  /// this fraction of the load it balances: |dPi/dC| <= residual_tolerance * max(|f_ext|, |dPi/dC|
+  /// at the start)). The first-order condition, not a small step: a step can be small far from
+  /// an equilibrium when the Hessian had to be shifted.
+  double residual_tolerance = 1e-6;
+  /// A Newton decrement below this fraction of max(|Pi|, strain energy) is below the energy's
+  /// rounding: such steps skip the line search (at most 3 of them; convergence is the residual's).
   double tolerance = 1e-12;
   /// Diagonal shift relative to the mean diagonal when the Hessian is not positive definite
   /// (far from the minimum of the nonconvex energy), multiplied by 10 until it is.
   double initial_shift = 1e-6;
+  /// Called after each assembly with the iteration, the energy and the relative residual; it may
+  /// throw (a time limit, a cancel): C then holds the last accepted coefficients.
+  std::function<void(int iteration, double energy, double residual)> on_iteration;
 };
 
 struct GridNewtonOutcome {
@@ -45,6 +55,7 @@ struct GridNewtonOutcome {
   double strain_energy = 0.0;
   double min_J = 0.0;
   int iterations = 0;
+  double residual = 0.0;  ///< |dPi/dC| / load at the returned coefficients (see residual_tolerance)
   bool converged = false;
   double assembly_seconds = 0.0, factorisation_seconds = 0.0, line_search_seconds = 0.0;
 };

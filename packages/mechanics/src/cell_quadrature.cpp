@@ -1,0 +1,183 @@
+#include "demnerf/mechanics/cell_quadrature.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include "demnerf/core/error.hpp"
+#include "demnerf/mechanics/particle_inside_test.hpp"
+
+namespace demnerf::mechanics {
+namespace {
+
+// Gauss-Legendre nodes on [0, 1] and their weights (summing to 1).
+void gaussRule(int n, std::vector<double>& t, std::vector<double>& w) {
+  switch (n) {
+    case 1: t = {0.5}, w = {1.0}; return;
+    case 2: {
+      const double a = 0.5 / std::sqrt(3.0);
+      t = {0.5 - a, 0.5 + a}, w = {0.5, 0.5};
+      return;
+    }
+    default: {
+      const double a = 0.5 * std::sqrt(0.6);
+      t = {0.5 - a, 0.5, 0.5 + a}, w = {5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0};
+    }
+  }
+}
+
+class CellIntegrator {
+ public:
+  CellIntegrator(const ParticleInsideTest& inside, const CellQuadratureConfig& config)
+      : inside_(inside), levels_(config.boundary_levels) {
+    gaussRule(config.points_per_axis, t_, w_);
+  }
+
+  // Adds the Gauss points of the cube [lo, lo + edge] that lie inside; a cube whose probes (its
+  // Gauss points and corners) disagree is split while levels remain, and at the last level gets
+  // one point at the centroid of its inside part (found on a lattice of probes) weighted by that
+  // part's volume: exact for linear integrands, so the volume and first moments of the body near
+  // its surface come out right whatever the cells' alignment.
+  void add(const Eigen::Vector3d& lo, double edge, int level, CellQuadrature& out) const {
+    std::vector<Eigen::Vector3d> points;
+    std::vector<double> weights;
+    std::vector<char> in;
+    const int n = static_cast<int>(t_.size());
+    int inside_count = 0;
+    for (int k = 0; k < n; ++k)
+      for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+          points.push_back(lo + edge * Eigen::Vector3d(t_[i], t_[j], t_[k]));
+          weights.push_back(w_[i] * w_[j] * w_[k] * edge * edge * edge);
+          in.push_back(inside_.inside(points.back()));
+          inside_count += in.back();
+        }
+    bool mixed = inside_count > 0 && inside_count < n * n * n;
+    for (int c = 0; c < 8 && !mixed; ++c) {
+      const Eigen::Vector3d corner = lo + edge * Eigen::Vector3d(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+      mixed = inside_.inside(corner) != (inside_count > 0);
+    }
+    if (mixed && level < levels_) {
+      const double half = 0.5 * edge;
+      for (int c = 0; c < 8; ++c)
+        add(lo + half * Eigen::Vector3d(c & 1, (c >> 1) & 1, (c >> 2) & 1), half, level + 1, out);
+      return;
+    }
+    if (mixed) {
+      addCutCell(lo, edge, out);
+      return;
+    }
+    for (std::size_t p = 0; p < points.size(); ++p)
+      if (in[p]) {
+        out.points.push_back(points[p]);
+        out.weights.push_back(weights[p]);
+      }
+  }
+
+  // Gauss points over the box that bounds the sub-cell's inside part, with weights fitted to the
+  // part: w_g is the integral over the part of the Lagrange polynomial that is 1 at Gauss point g
+  // and 0 at the others (summed over a lattice of probes), so the rule integrates the tensor
+  // polynomials of the Gauss rule's order exactly over the part (moment fitting). Every point keeps
+  // a weight, so the (degree + 1)^3 functions that meet there stay distinguishable: one point at
+  // the part's centroid leaves them soft modes (55 % error on a stretched cube). The tight box keeps
+  // the weights of slab-like parts positive.
+  void addCutCell(const Eigen::Vector3d& lo, double edge, CellQuadrature& out) const {
+    constexpr int kProbes = 6;  // per axis
+    const double probe = edge / kProbes;
+    std::vector<Eigen::Vector3d> inside;
+    Eigen::Vector3d box_lo = lo + Eigen::Vector3d::Constant(edge), box_hi = lo;
+    for (int k = 0; k < kProbes; ++k)
+      for (int j = 0; j < kProbes; ++j)
+        for (int i = 0; i < kProbes; ++i) {
+          const Eigen::Vector3d p = lo + probe * (Eigen::Vector3d(i, j, k) + Eigen::Vector3d::Constant(0.5));
+          if (!inside_.inside(p)) continue;
+          inside.push_back(p);
+          box_lo = box_lo.cwiseMin(p);
+          box_hi = box_hi.cwiseMax(p);
+        }
+    if (inside.empty()) return;
+    box_lo -= Eigen::Vector3d::Constant(0.5 * probe);
+    box_hi += Eigen::Vector3d::Constant(0.5 * probe);
+    const Eigen::Vector3d size = box_hi - box_lo;
+    const int n = static_cast<int>(t_.size());
+    std::vector<double> fitted(n * n * n, 0.0);
+    const double probe_volume = probe * probe * probe;
+    const double inside_volume = probe_volume * static_cast<double>(inside.size());
+    std::vector<double> L[3];
+    for (const Eigen::Vector3d& p : inside) {
+      for (int a = 0; a < 3; ++a) L[a] = lagrange((p(a) - box_lo(a)) / size(a));
+      for (int c = 0; c < n; ++c)
+        for (int b = 0; b < n; ++b)
+          for (int a = 0; a < n; ++a) fitted[(c * n + b) * n + a] += probe_volume * L[0][a] * L[1][b] * L[2][c];
+    }
+    // Negative weights (a part that fills a corner of its box) would make the energy non-convex
+    // there: they are dropped and the rest rescaled to the part's volume.
+    double positive = 0.0;
+    for (double& w : fitted) positive += (w = std::max(w, 0.0));
+    if (!(positive > 0)) return;
+    for (int c = 0; c < n; ++c)
+      for (int b = 0; b < n; ++b)
+        for (int a = 0; a < n; ++a) {
+          const double w = fitted[(c * n + b) * n + a];
+          if (w <= 0) continue;
+          out.points.push_back(box_lo + size.cwiseProduct(Eigen::Vector3d(t_[a], t_[b], t_[c])));
+          out.weights.push_back(w * inside_volume / positive);
+        }
+  }
+
+  // The Lagrange polynomials of the Gauss nodes t_ at s.
+  std::vector<double> lagrange(double s) const {
+    std::vector<double> L(t_.size(), 1.0);
+    for (std::size_t a = 0; a < t_.size(); ++a)
+      for (std::size_t b = 0; b < t_.size(); ++b)
+        if (a != b) L[a] *= (s - t_[b]) / (t_[a] - t_[b]);
+    return L;
+  }
+
+ private:
+  const ParticleInsideTest& inside_;
+  int levels_;
+  std::vector<double> t_, w_;
+};
+
+CellQuadrature integrateCells(const ParticleInsideTest& inside, const BsplineGrid& grid,
+                              const CellQuadratureConfig& config) {
+  const CellIntegrator integrator(inside, config);
+  CellQuadrature out;
+  const Eigen::Vector3i cells = grid.cells();
+  for (int k = 0; k < cells(2); ++k)
+    for (int j = 0; j < cells(1); ++j)
+      for (int i = 0; i < cells(0); ++i)
+        integrator.add(grid.origin() + grid.cell() * Eigen::Vector3d(i, j, k), grid.cell(), 0, out);
+  for (double w : out.weights) out.raw_volume += w;
+  if (out.points.empty() || !(out.raw_volume > 0))
+    throw core::Error("cell quadrature: no Gauss point of the " + std::to_string(cells.prod()) +
+                      " grid cells lies inside the body the particles describe");
+  return out;
+}
+
+}  // namespace
+
+CellQuadrature cellQuadrature(const core::ParticleCloud& cloud, const BsplineGrid& grid,
+                              const CellQuadratureConfig& config) {
+  if (config.points_per_axis < 1 || config.points_per_axis > 3 || config.boundary_levels < 0 ||
+      config.boundary_levels > 4)
+    throw core::Error("cell quadrature: points_per_axis must be 1-3 and boundary_levels 0-4");
+  ParticleInsideTest inside(cloud);
+  CellQuadrature out = integrateCells(inside, grid, config);
+  // A lattice cloud whose surface particles carry a cell of volume each describes a body larger
+  // than its particles' hull (the FEM voxelises it so): the surface moves out until the volumes
+  // agree. Sampled clouds (surface particles on the surface, without volume) need no move.
+  const double offset = inside.surfaceArea() > 0 ? (inside.volume() - out.raw_volume) / inside.surfaceArea() : 0.0;
+  if (std::abs(offset) > 0.1 * inside.spacing()) {
+    inside.setSurfaceOffset(std::clamp(offset, -0.5 * inside.spacing(), inside.spacing()));
+    out = integrateCells(inside, grid, config);
+  }
+  // The particles' volumes are the sampler's estimate of the body's volume (exact for meshes it
+  // sampled); the cells' inside test resolves the surface only to a sub-cell.
+  const double scale = inside.volume() / out.raw_volume;
+  for (double& w : out.weights) w *= scale;
+  return out;
+}
+
+}  // namespace demnerf::mechanics

@@ -1,0 +1,76 @@
+// The sampler-independent volume quadrature of the DEM's feature grid and the inside test it uses.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "demnerf/mechanics/box_particles.hpp"
+#include "demnerf/mechanics/bspline_grid.hpp"
+#include "demnerf/mechanics/cell_quadrature.hpp"
+#include "demnerf/mechanics/particle_inside_test.hpp"
+
+namespace dm = demnerf::mechanics;
+using Eigen::Vector3d;
+
+namespace {
+
+// Interior particles at random inside [lower, upper] with equal volumes and the box's exact
+// surface particles: a layout no grid or cell can align with.
+demnerf::core::ParticleCloud randomBox(const Vector3d& lower, const Vector3d& upper, int n, unsigned seed) {
+  demnerf::core::ParticleCloud cloud = dm::makeBoxParticles(lower, upper, Eigen::Vector3i(6, 6, 6));
+  demnerf::core::ParticleCloud out;
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  const double volume = (upper - lower).prod();
+  for (int i = 0; i < n; ++i) {
+    out.positions.push_back(lower + (upper - lower).cwiseProduct(Vector3d(u01(rng), u01(rng), u01(rng))));
+    out.volumes.push_back(volume / n);
+    out.normals.push_back(Vector3d::Zero());
+    out.areas.push_back(0.0);
+    out.colors.push_back({0, 0, 0});
+  }
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    if (cloud.isSurface(i)) {
+      out.positions.push_back(cloud.positions[i]);
+      out.volumes.push_back(0.0);
+      out.normals.push_back(cloud.normals[i]);
+      out.areas.push_back(cloud.areas[i]);
+      out.colors.push_back({0, 0, 0});
+    }
+  return out;
+}
+
+}  // namespace
+
+TEST(ParticleInsideTest, ClassifiesPointsOfABoxFromItsParticles) {
+  const Vector3d lo(0, 0, 0), hi(0.2, 0.1, 0.1);
+  for (const auto& cloud : {dm::makeBoxParticles(lo, hi, Eigen::Vector3i(20, 10, 10)), randomBox(lo, hi, 2000, 3)}) {
+    const dm::ParticleInsideTest inside(cloud);
+    EXPECT_TRUE(inside.inside(Vector3d(0.1, 0.05, 0.05)));
+    EXPECT_TRUE(inside.inside(Vector3d(0.003, 0.05, 0.05)));
+    EXPECT_TRUE(inside.inside(Vector3d(0.197, 0.003, 0.097)));
+    EXPECT_FALSE(inside.inside(Vector3d(-0.004, 0.05, 0.05)));
+    EXPECT_FALSE(inside.inside(Vector3d(0.1, 0.105, 0.05)));
+    EXPECT_FALSE(inside.inside(Vector3d(0.5, 0.5, 0.5)));
+  }
+}
+
+TEST(CellQuadrature, IntegratesTheBoxWhicheverWayItWasSampled) {
+  const Vector3d lo(0, 0, 0), hi(0.2, 0.1, 0.1);
+  for (const auto& cloud : {dm::makeBoxParticles(lo, hi, Eigen::Vector3i(20, 10, 10)), randomBox(lo, hi, 2000, 5)}) {
+    // Cells that do not line up with the box, so the surface cuts them.
+    const dm::BsplineGrid grid(lo, hi, 0.023, 2);
+    const dm::CellQuadrature q = dm::cellQuadrature(cloud, grid);
+    double volume = 0.0;
+    Vector3d moment = Vector3d::Zero();
+    for (std::size_t p = 0; p < q.points.size(); ++p) {
+      volume += q.weights[p];
+      moment += q.weights[p] * q.points[p];
+      EXPECT_GT(q.weights[p], 0.0);
+    }
+    EXPECT_NEAR(volume, 0.002, 1e-9);  // scaled to the particles' volume
+    EXPECT_NEAR(q.raw_volume, 0.002, 0.002 * 0.05) << "the inside test resolves the box to a sub-cell";
+    const Vector3d centroid = moment / volume;
+    EXPECT_LT((centroid - Vector3d(0.1, 0.05, 0.05)).norm(), 0.002);
+  }
+}
