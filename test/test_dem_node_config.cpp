@@ -29,10 +29,10 @@ TEST(DemNodeConfig, DefaultsAreTheLibrarysAsForTheCli) {
 TEST(DemNodeConfig, ParametersOverrideTheSolverConfigFile) {
   const std::string path = ::testing::TempDir() + "dem_node_solvers_" + std::to_string(::getpid()) + ".yaml";
   std::ofstream(path) << "dem: {grid_spacings: 3, width: 16}\nvoxel: {order: 1}\ncontrol: {time_limit: 10}\n";
-  const DemNodeConfig config = DemNodeConfig::fromParameters(ParameterMap({{"solver_config", path},
+  const DemNodeConfig config = DemNodeConfig::fromParameters(ParameterMap{{"solver_config", path},
                                                                            {"dem_grid_spacings", 2.5},
                                                                            {"solve_time_limit", 20},
-                                                                           {"threads", 1}}));
+                                                                           {"threads", 1}});
   const dm::SimulateOptions o = config.simulateOptions();
   EXPECT_EQ(o.dem.grid_spacings, 2.5);  // parameter over file
   EXPECT_EQ(o.dem.width, 16);           // file over default
@@ -44,7 +44,7 @@ TEST(DemNodeConfig, ParametersOverrideTheSolverConfigFile) {
 }
 
 TEST(DemNodeConfig, MethodAndParametricModeUseTheLibrarysPresets) {
-  const dm::SimulateOptions mlp = DemNodeConfig::fromParameters(ParameterMap({{"dem_method", "mlp"}})).simulateOptions();
+  const dm::SimulateOptions mlp = DemNodeConfig::fromParameters(ParameterMap{{"dem_method", "mlp"}}).simulateOptions();
   EXPECT_EQ(dm::solverConfigYaml(mlp), dm::solverConfigYaml(dm::solverDefaults("mlp")));
   EXPECT_EQ(mlp.dem.boundary, dm::DemConfig::Boundary::kPenalty);
 
@@ -52,7 +52,7 @@ TEST(DemNodeConfig, MethodAndParametricModeUseTheLibrarysPresets) {
   range[0] = 0.0;
   range[1] = 1.5;
   const dm::DemConfig parametric =
-      DemNodeConfig::fromParameters(ParameterMap({{"parametric", true}, {"load_range", range}})).simulateOptions().dem;
+      DemNodeConfig::fromParameters(ParameterMap{{"parametric", true}, {"load_range", range}}).simulateOptions().dem;
   EXPECT_TRUE(parametric.parametric);
   EXPECT_EQ(parametric.grid_spacings, 0.0);
   EXPECT_EQ(parametric.adam_iterations, dm::paperDemConfig().adam_iterations);
@@ -68,13 +68,13 @@ TEST(DemNodeConfig, BadParametersAreRejectedByName) {
     }
     return "";
   };
-  EXPECT_NE(message(ParameterMap({{"dem_method", "grids"}})).find("~dem_method"), std::string::npos);
-  EXPECT_NE(message(ParameterMap({{"dem_grid_spacings", -1.0}})).find("~dem_grid_spacings"), std::string::npos);
-  EXPECT_NE(message(ParameterMap({{"solve_time_limit", -1.0}})).find("~solve_time_limit"), std::string::npos);
-  EXPECT_NE(message(ParameterMap({{"solver_config", "/nonexistent/solvers.yaml"}})).find("/nonexistent/solvers.yaml"),
+  EXPECT_NE(message(ParameterMap{{"dem_method", "grids"}}).find("~dem_method"), std::string::npos);
+  EXPECT_NE(message(ParameterMap{{"dem_grid_spacings", -1.0}}).find("~dem_grid_spacings"), std::string::npos);
+  EXPECT_NE(message(ParameterMap{{"solve_time_limit", -1.0}}).find("~solve_time_limit"), std::string::npos);
+  EXPECT_NE(message(ParameterMap{{"solver_config", "/nonexistent/solvers.yaml"}}).find("/nonexistent/solvers.yaml"),
             std::string::npos);
   XmlRpc::XmlRpcValue range;
   range[0] = 1.2;
   range[1] = 1.5;
-  EXPECT_NE(message(ParameterMap({{"parametric", true}, {"load_range", range}})).find("~load_range"), std::string::npos);
+  EXPECT_NE(message(ParameterMap{{"parametric", true}, {"load_range", range}}).find("~load_range"), std::string::npos);
 }

@@ -183,13 +183,12 @@ const char* usage() {
          "  --print-config         print the settings these options give, as a --config file, and exit\n"
          "  --json                 last line of stdout: the figures as one JSON object\n"
          "DEM:\n"
-         "  --method grid|mlp      default grid: the MLP plus a B-spline feature grid of "
+         "  --method grid|mlp      default grid: the MLP plus a B-spline feature grid "
       << number(d.dem.grid_spacings)
-      << " particle spacings,\n"
-         "                         solved by Newton (Adam "
-      << d.dem.adam_iterations
-      << "); mlp: the paper's DEM, the MLP alone, Adam " << mlp.adam_iterations
-      << " per load step, penalty boundary\n"
+      << " particle spacings wide,\n"
+         "                         solved by Newton; mlp: the paper's DEM, the MLP alone trained by Adam\n"
+         "                         ("
+      << mlp.adam_iterations << " steps per load step) with the penalty boundary\n"
          "  --grid-spacings S      default "
       << number(d.dem.grid_spacings)
       << " (grid): feature grid cell in particle spacings (below 1.5 is refused)\n"

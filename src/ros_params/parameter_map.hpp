@@ -5,6 +5,7 @@
 
 #include <xmlrpcpp/XmlRpcValue.h>
 
+#include <initializer_list>
 #include <map>
 #include <string>
 #include <utility>
@@ -15,7 +16,7 @@ namespace dem_nerf {
 class ParameterMap {
  public:
   ParameterMap() = default;
-  explicit ParameterMap(std::map<std::string, XmlRpc::XmlRpcValue> values) : values_(std::move(values)) {}
+  ParameterMap(std::initializer_list<std::pair<const std::string, XmlRpc::XmlRpcValue>> values) : values_(values) {}
 
   bool hasParam(const std::string& name) const { return values_.count(name) > 0; }
 

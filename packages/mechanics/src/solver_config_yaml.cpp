@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -134,7 +135,7 @@ std::vector<Field> demFields(DemConfig& c) {
       integer(s, "depth", c.depth, 1, many, "hidden layers of the MLP"),
       choice(s, "activation", c.activation, words({"tanh", "sigmoid", "softplus", "sin"}), "MLP activation"),
       choice<B>(s, "boundary", c.boundary, {{"exact", B::kExact}, {"penalty", B::kPenalty}},
-                "fixtures: exact (u = g + D z) or the paper's penalty W_u MSE_u (MLP alone)"),
+                "fixtures held exactly, u = g + D z, or by the paper's penalty W_u MSE_u"),
       number(s, "penalty_weight", c.penalty_weight, 0, true, kInf, "W_u of the penalty boundary"),
       integer(s, "adam_iterations", c.adam_iterations, 0, many, "Adam steps per load step (0: grid Newton only)"),
       number(s, "adam_learning_rate", c.adam_learning_rate, 0, true, kInf, "Adam's initial learning rate"),
