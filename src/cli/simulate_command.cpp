@@ -143,7 +143,7 @@ Figures runSimulate(const Arguments& arguments) {
     std::string message = error.what();
     for (char& c : message)
       if (c == '\n') c = ' ';
-    throw core::Error(std::string("no equilibrium (") + mechanics::solveFailureName(error.failure()) + "): " + message);
+    throw core::Error(std::string("solve failed (") + mechanics::solveFailureName(error.failure()) + "): " + message);
   }
   core::writeResult(out_path, outcome.field);
   Figures figures{{"seconds", outcome.seconds},
