@@ -79,6 +79,9 @@ void applyDemFlags(const Arguments& arguments, mechanics::DemConfig& dem) {
     dem.parametric = true;
   }
   if (dem.parametric) dem = mechanics::parametricDemConfig(dem);
+  if (dem.output_newton && !dem.parametric && (dem.grid_cell > 0 || dem.grid_spacings > 0))
+    throw UsageError("option --newton solves the MLP's output layer, which the feature grid takes over: use "
+                     "--method mlp --boundary exact --newton");
 }
 
 /// Every setting of a run: the DEM method's preset, the config file, then the flags.
