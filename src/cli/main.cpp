@@ -13,7 +13,8 @@ using demnerf::cli::Arguments;
 using demnerf::cli::Command;
 using demnerf::cli::Figures;
 
-const std::set<std::string> kFlags = {"json", "help", "once", "quiet"};
+// Options that take no value (any other --name takes the next token as its value).
+const std::set<std::string> kFlags = {"json", "help", "once", "quiet", "newton", "print-config"};
 
 void printOverview(std::ostream& out) {
   out << "usage: demnerf <command> [options]   (demnerf <command> --help for its options)\n\n"

@@ -1,21 +1,129 @@
 // `demnerf simulate`: quasi-static deformation of a particle cloud under a scenario, by the Deep
 // Energy Method, the FEM baseline or the strong-form PINN baseline (packages/mechanics). Writes
-// one result row per particle.
+// one result row per particle. Settings: the DEM method's preset, then --config FILE, then flags
+// (mechanics/solver_config_yaml.hpp); the help states the library's defaults.
 
+#include <cmath>
+#include <cstdio>
 #include <cstdlib>
+#include <iostream>
+#include <sstream>
+#include <tuple>
 
 #include "command.hpp"
 #include "commands.hpp"
 #include "demnerf/core/ply.hpp"
 #include "demnerf/core/scenario.hpp"
 #include "demnerf/mechanics/simulate.hpp"
+#include "demnerf/mechanics/solver_config_yaml.hpp"
 
 namespace demnerf::cli {
 namespace {
 
+std::string number(double value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
+
+/// One line per report on stderr: what runs, how far the load is, and how close to equilibrium.
+void printProgress(const mechanics::SolveProgress& p) {
+  char residual[32] = "-";
+  if (std::isfinite(p.residual)) std::snprintf(residual, sizeof residual, "%.2e", p.residual);
+  std::fprintf(stderr, "simulate: %s %-7s load %.3f  iteration %5d  energy %+.6e J  residual %s  %6.1f s\n",
+               p.solver.c_str(), p.phase.c_str(), p.load_fraction, p.iteration, p.energy, residual, p.elapsed);
+}
+
+/// --load-range MIN,MAX as two numbers.
+std::pair<double, double> loadRange(const std::string& range) {
+  const auto comma = range.find(',');
+  char* end = nullptr;
+  const double lo = std::strtod(range.c_str(), &end);
+  const double hi = comma == std::string::npos ? 0.0 : std::strtod(range.c_str() + comma + 1, nullptr);
+  if (comma == std::string::npos || end != range.c_str() + comma || !(lo < hi))
+    throw UsageError("option --load-range expects MIN,MAX load fractions with MIN < MAX (e.g. 0,1.5), got '" + range + "'");
+  return {lo, hi};
+}
+
+/// The DEM settings of the flags over `dem` (the method's preset with the config file over it).
+void applyDemFlags(const Arguments& arguments, mechanics::DemConfig& dem) {
+  dem.adam_iterations = arguments.integer("iterations", dem.adam_iterations);
+  dem.width = arguments.integer("width", dem.width);
+  dem.depth = arguments.integer("depth", dem.depth);
+  dem.threads = arguments.integer("threads", dem.threads);
+  if (arguments.flag("newton")) dem.output_newton = true;
+  if (arguments.has("grid-cell")) {
+    dem.grid_cell = arguments.number("grid-cell");
+    if (!(dem.grid_cell > 0))
+      throw UsageError("option --grid-cell expects the feature grid's cell edge in metres (> 0; about two particle spacings)");
+  }
+  if (arguments.has("grid-spacings")) {
+    dem.grid_spacings = arguments.number("grid-spacings");
+    if (!(dem.grid_spacings > 0))
+      throw UsageError("option --grid-spacings expects the feature grid's cell in particle spacings (> 0; 2 is a good choice)");
+  }
+  // With the feature grid its Newton solve is the training: Adam only when --iterations asks.
+  if ((arguments.has("grid-cell") || arguments.has("grid-spacings")) && !arguments.has("iterations"))
+    dem.adam_iterations = 0;
+  if (arguments.has("boundary")) {
+    const std::string boundary = arguments.text("boundary");
+    if (boundary == "penalty") dem.boundary = mechanics::DemConfig::Boundary::kPenalty;
+    else if (boundary == "exact") dem.boundary = mechanics::DemConfig::Boundary::kExact;
+    else throw UsageError("option --boundary expects exact or penalty, got '" + boundary + "'");
+  }
+  if (arguments.has("load-range")) {
+    if (arguments.has("grid-cell") || arguments.has("grid-spacings"))
+      throw UsageError("option --load-range trains the MLP alone (the feature grid does not take the load): drop "
+                       "--grid-cell / --grid-spacings");
+    std::tie(dem.load_range_min, dem.load_range_max) = loadRange(arguments.text("load-range"));
+    dem.parametric = true;
+  }
+  if (dem.parametric) dem = mechanics::parametricDemConfig(dem);
+  if (dem.output_newton && !dem.parametric && (dem.grid_cell > 0 || dem.grid_spacings > 0))
+    throw UsageError("option --newton solves the MLP's output layer, which the feature grid takes over: use "
+                     "--method mlp --boundary exact --newton");
+}
+
+/// Every setting of a run: the DEM method's preset, the config file, then the flags.
+mechanics::SimulateOptions settings(const Arguments& arguments) {
+  const std::string method = arguments.text("method", "grid");
+  if (method != "grid" && method != "mlp") throw UsageError("option --method expects grid or mlp, got '" + method + "'");
+  mechanics::SimulateOptions options = mechanics::solverDefaults(method, arguments.text("config", ""));
+  applyDemFlags(arguments, options.dem);
+  // The PINN takes the same network, iteration and thread flags (its own defaults when absent).
+  options.pinn.adam_iterations = arguments.integer("iterations", options.pinn.adam_iterations);
+  options.pinn.width = arguments.integer("width", options.pinn.width);
+  options.pinn.depth = arguments.integer("depth", options.pinn.depth);
+  options.pinn.threads = arguments.integer("threads", options.pinn.threads);
+  options.voxel.cell = arguments.number("cell", options.voxel.cell);
+  options.voxel.order = arguments.integer("order", options.voxel.order);
+  if (options.voxel.order != 1 && options.voxel.order != 2)
+    throw UsageError("option --order expects 1 (TET4) or 2 (TET10), got " + std::to_string(options.voxel.order));
+  if (options.voxel.cell < 0) throw UsageError("option --cell expects a positive length in metres (0: automatic)");
+  // How --mesh is meshed for the FEM: CGAL tetrahedra that follow the surface, or voxels.
+  if (arguments.has("mesher")) {
+    const std::string mesher = arguments.text("mesher");
+    if (mesher == "voxel") options.mesher = mechanics::SimulateOptions::Mesher::kVoxel;
+    else if (mesher == "cgal") options.mesher = mechanics::SimulateOptions::Mesher::kCgal;
+    else throw UsageError("option --mesher expects cgal or voxel, got '" + mesher + "'");
+  }
+  options.control.time_limit = arguments.number("time-limit", options.control.time_limit);
+  if (options.control.time_limit < 0)
+    throw UsageError("option --time-limit expects seconds >= 0 (0: no limit), got " + arguments.text("time-limit"));
+  return options;
+}
+
 Figures runSimulate(const Arguments& arguments) {
   arguments.rejectUnknown({"particles", "scenario", "solver", "mesh", "out", "cell", "order", "iterations", "width",
-                           "depth", "boundary", "threads", "json", "quiet", "save-model", "load-range", "newton", "grid-cell", "grid-spacings", "mesher"});
+                           "depth", "boundary", "threads", "json", "quiet", "save-model", "load-range", "newton",
+                           "grid-cell", "grid-spacings", "mesher", "method", "config", "time-limit", "print-config"});
+  mechanics::SimulateOptions options = settings(arguments);
+  if (arguments.flag("print-config")) {
+    std::cout << "# demnerf solver settings (demnerf simulate --config FILE, dem_node ~solver_config): every key\n"
+                 "# with its value and meaning. Keys left out keep their defaults; unknown keys are errors.\n"
+              << mechanics::solverConfigYaml(options);
+    return Figures::object();
+  }
   const std::string solver_name = arguments.text("solver", "dem");
   if (solver_name != "dem" && solver_name != "fem" && solver_name != "pinn")
     throw UsageError("option --solver expects dem, fem or pinn, got '" + solver_name + "'");
@@ -23,65 +131,23 @@ Figures runSimulate(const Arguments& arguments) {
   const std::string out_path = arguments.text("out");
   const core::ParticleCloud cloud = core::readParticles(arguments.text("particles"));
   const core::Scenario scenario = core::loadScenario(arguments.text("scenario"));
-
-  mechanics::SimulateOptions options;
-  options.voxel.cell = arguments.number("cell", 0.0);
-  options.voxel.order = arguments.integer("order", 2);
-  if (options.voxel.order != 1 && options.voxel.order != 2)
-    throw UsageError("option --order expects 1 (TET4) or 2 (TET10), got " + std::to_string(options.voxel.order));
-  if (options.voxel.cell < 0) throw UsageError("option --cell expects a positive length in metres (0: automatic)");
   if (arguments.has("mesh")) options.surface = core::readMesh(arguments.text("mesh"));
-  // How --mesh is meshed for the FEM: CGAL tetrahedra that follow the surface, or voxels.
-  const std::string mesher = arguments.text("mesher", "cgal");
-  if (mesher == "voxel") options.mesher = mechanics::SimulateOptions::Mesher::kVoxel;
-  else if (mesher != "cgal") throw UsageError("option --mesher expects cgal or voxel, got '" + mesher + "'");
-  options.dem.adam_iterations = arguments.integer("iterations", options.dem.adam_iterations);
-  options.dem.width = arguments.integer("width", options.dem.width);
-  options.dem.depth = arguments.integer("depth", options.dem.depth);
-  options.dem.threads = arguments.integer("threads", 0);
-  // The PINN takes the same network and iteration flags (its own defaults when absent).
-  options.pinn.adam_iterations = arguments.integer("iterations", options.pinn.adam_iterations);
-  options.pinn.width = arguments.integer("width", options.pinn.width);
-  options.pinn.depth = arguments.integer("depth", options.pinn.depth);
-  options.pinn.threads = options.dem.threads;
-  // DEM extras: a saved network for `demnerf predict`, the parametric load range (instant answers
-  // for any load fraction in it) and the output-layer Newton solve.
   if (arguments.has("save-model")) {
     if (solver != mechanics::SolverChoice::kDem) throw UsageError("option --save-model needs --solver dem");
     options.dem_model_path = arguments.text("save-model");
   }
-  if (arguments.has("load-range")) {
-    const std::string range = arguments.text("load-range");
-    const auto comma = range.find(',');
-    char* end = nullptr;
-    const double lo = std::strtod(range.c_str(), &end);
-    const double hi = comma == std::string::npos ? 0.0 : std::strtod(range.c_str() + comma + 1, nullptr);
-    if (comma == std::string::npos || end != range.c_str() + comma || !(lo < hi))
-      throw UsageError("option --load-range expects MIN,MAX load fractions with MIN < MAX (e.g. 0,1.5), got '" + range + "'");
-    options.dem.parametric = true;
-    options.dem.load_range_min = lo;
-    options.dem.load_range_max = hi;
-  }
-  if (arguments.has("newton")) options.dem.output_newton = true;
-  // The DEM's feature grid (DemConfig::grid_cell): its Newton solve is the training, so Adam runs
-  // only when --iterations asks for it.
-  if (arguments.has("grid-cell")) {
-    options.dem.grid_cell = arguments.number("grid-cell", 0.0);
-    if (!(options.dem.grid_cell > 0))
-      throw UsageError("option --grid-cell expects the feature grid's cell edge in metres (> 0; about two particle spacings)");
-  }
-  if (arguments.has("grid-spacings")) {
-    options.dem.grid_spacings = arguments.number("grid-spacings", 0.0);
-    if (!(options.dem.grid_spacings > 0))
-      throw UsageError("option --grid-spacings expects the feature grid's cell in particle spacings (> 0; 2 is a good choice)");
-  }
-  if ((arguments.has("grid-cell") || arguments.has("grid-spacings")) && !arguments.has("iterations"))
-    options.dem.adam_iterations = 0;
-  const std::string boundary = arguments.text("boundary", "exact");
-  if (boundary == "penalty") options.dem.boundary = mechanics::DemConfig::Boundary::kPenalty;
-  else if (boundary != "exact") throw UsageError("option --boundary expects exact or penalty, got '" + boundary + "'");
+  if (!arguments.flag("quiet")) options.control.progress = printProgress;
 
-  const mechanics::SimulationOutcome outcome = mechanics::simulate(cloud, scenario, solver, options);
+  mechanics::SimulationOutcome outcome;
+  try {
+    outcome = mechanics::simulate(cloud, scenario, solver, options);
+  } catch (const mechanics::SolveError& error) {
+    // One line that names the cause (exit 1): scripts can tell a time limit from a divergence.
+    std::string message = error.what();
+    for (char& c : message)
+      if (c == '\n') c = ' ';
+    throw core::Error(std::string("solve failed (") + mechanics::solveFailureName(error.failure()) + "): " + message);
+  }
   core::writeResult(out_path, outcome.field);
   Figures figures{{"seconds", outcome.seconds},
                   {"energy", outcome.energy},
@@ -89,6 +155,7 @@ Figures runSimulate(const Arguments& arguments) {
                   {"particles", cloud.size()},
                   {"solver", solver_name},
                   {"out", out_path}};
+  if (solver == mechanics::SolverChoice::kDem) figures["method"] = arguments.text("method", "grid");
   if (solver == mechanics::SolverChoice::kPinn) figures["loss"] = outcome.loss;
   if (solver == mechanics::SolverChoice::kFem) {
     figures["mesh_nodes"] = outcome.mesh_nodes;
@@ -97,13 +164,72 @@ Figures runSimulate(const Arguments& arguments) {
   return figures;
 }
 
+/// The usage text with every flag's default taken from the library (solverDefaults), so the help
+/// cannot drift from what runs.
+const char* usage() {
+  static const std::string text = [] {
+    const mechanics::SimulateOptions d = mechanics::solverDefaults();
+    const mechanics::DemConfig mlp = mechanics::paperDemConfig();
+    std::ostringstream u;
+    u << "--particles P.ply --scenario S.yaml --out R.ply [options]\n"
+         "Quasi-static deformation of the particles under the scenario; one result row per particle.\n"
+         "Settings: the DEM method's preset, then --config FILE, then the flags given here.\n"
+         "  --particles P.ply      particles with volumes, e.g. from `demnerf sample` (required)\n"
+         "  --scenario S.yaml      material, fixtures and loads, e.g. config/scenarios/*.yaml (required)\n"
+         "  --out R.ply            result: rest position, displacement, von Mises stress per particle (required)\n"
+         "  --solver dem|fem|pinn  default dem: Deep Energy Method; fem: FEM baseline; pinn: strong-form PINN\n"
+         "  --config FILE          solver settings YAML (config/solvers.yaml lists every key with its default)\n"
+         "  --time-limit S         default "
+      << number(d.control.time_limit)
+      << ": seconds a solve may run before it stops with an error (0: no limit)\n"
+         "  --quiet                no progress (default: one line per second on stderr while solving)\n"
+         "  --print-config         print the settings these options give, as a --config file, and exit\n"
+         "  --json                 last line of stdout: the figures as one JSON object\n"
+         "DEM:\n"
+         "  --method grid|mlp      default grid: the MLP plus a B-spline feature grid "
+      << number(d.dem.grid_spacings)
+      << " particle spacings wide,\n"
+         "                         solved by Newton; mlp: the paper's DEM, the MLP alone trained by Adam\n"
+         "                         ("
+      << mlp.adam_iterations << " steps per load step) with the penalty boundary\n"
+         "  --grid-spacings S      default "
+      << number(d.dem.grid_spacings)
+      << " (grid): feature grid cell in particle spacings (below 1.5 is refused)\n"
+         "  --grid-cell H          default "
+      << number(d.dem.grid_cell)
+      << " (from --grid-spacings): feature grid cell edge in m; either grid flag sets Adam to 0\n"
+         "  --iterations N         Adam iterations per load step (default: grid "
+      << d.dem.adam_iterations << ", mlp " << mlp.adam_iterations << ", PINN " << d.pinn.adam_iterations
+      << ")\n"
+         "  --width W, --depth D   MLP hidden units per layer and hidden layers (default "
+      << d.dem.width << ", " << d.dem.depth << "; PINN " << d.pinn.width << ", " << d.pinn.depth
+      << ")\n"
+         "  --boundary exact|penalty  fixtures held exactly, u = g + D z (grid default), or by the paper's\n"
+         "                         penalty W_u MSE_u (mlp default; the feature grid needs exact)\n"
+         "  --newton               Newton on the MLP's output layer (MLP alone, exact boundary; default off)\n"
+         "  --load-range MIN,MAX   parametric: train the MLP once over these load fractions (contains 1), then\n"
+         "                         `demnerf predict --load-scale` answers any of them (default off)\n"
+         "  --save-model M.dem     save the trained DEM for `demnerf predict` (default: not saved)\n"
+         "  --threads T            torch threads of the DEM and PINN (default "
+      << d.dem.threads
+      << ": 1 below 50k particles, else all cores)\n"
+         "FEM:\n"
+         "  --mesh M.ply           mesh this closed surface (default: voxels of the cells that hold particles)\n"
+         "  --mesher cgal|voxel    default "
+      << (d.mesher == mechanics::SimulateOptions::Mesher::kCgal ? "cgal" : "voxel")
+      << ": CGAL Mesh_3 tetrahedra that follow --mesh; voxel: voxels inside it\n"
+         "  --cell H               default "
+      << number(d.voxel.cell)
+      << " (automatic): mesh size in m (hex edge, or CGAL tetrahedron edge)\n"
+         "  --order 1|2            default "
+      << d.voxel.order << ": 1 linear (TET4), 2 quadratic (TET10) tetrahedra";
+    return u.str();
+  }();
+  return text.c_str();
+}
+
 }  // namespace
 
-const Command kSimulateCommand = {
-    "simulate", "quasi-static deformation of a particle cloud",
-    "--particles P.ply --scenario S.yaml --solver dem|fem|pinn [--mesh M.ply [--mesher cgal|voxel]] --out R.ply "
-    "[--cell H] [--order 1|2] [--iterations N] [--width W] [--depth D] [--boundary exact|penalty] "
-    "[--threads T] [--save-model M.dem] [--load-range MIN,MAX] [--newton] [--grid-cell H | --grid-spacings S] [--json]",
-    runSimulate};
+const Command kSimulateCommand = {"simulate", "quasi-static deformation of a particle cloud", usage(), runSimulate};
 
 }  // namespace demnerf::cli

@@ -1,6 +1,7 @@
 #pragma once
 // Small helpers for reading and checking ~ parameters, so each node's Config::fromParameters
-// stays a flat list of keys with their checks.
+// stays a flat list of keys with their checks. `Node` is a ros::NodeHandle, or a ParameterMap
+// (parameter_map.hpp) where a config is read without a master (tests).
 
 #include <ros/ros.h>
 
@@ -13,7 +14,8 @@
 namespace dem_nerf {
 
 /// Reads ~name into value when set; throws core::Error when it is not finite or below `minimum`.
-inline void readNumber(const ros::NodeHandle& node, const std::string& name, double& value, double minimum) {
+template <class Node>
+void readNumber(const Node& node, const std::string& name, double& value, double minimum) {
   node.param(name, value, value);
   if (!std::isfinite(value) || value < minimum) {
     throw demnerf::core::Error("parameter ~" + name + " must be a number >= " + std::to_string(minimum) +
@@ -21,7 +23,8 @@ inline void readNumber(const ros::NodeHandle& node, const std::string& name, dou
   }
 }
 
-inline void readCount(const ros::NodeHandle& node, const std::string& name, int& value, int minimum) {
+template <class Node>
+void readCount(const Node& node, const std::string& name, int& value, int minimum) {
   node.param(name, value, value);
   if (value < minimum) {
     throw demnerf::core::Error("parameter ~" + name + " must be an integer >= " + std::to_string(minimum) +
@@ -30,7 +33,8 @@ inline void readCount(const ros::NodeHandle& node, const std::string& name, int&
 }
 
 /// Reads ~name as a list of exactly `size` finite numbers when set (empty when unset).
-inline std::vector<double> readList(const ros::NodeHandle& node, const std::string& name, std::size_t size) {
+template <class Node>
+std::vector<double> readList(const Node& node, const std::string& name, std::size_t size) {
   std::vector<double> values;
   if (!node.getParam(name, values)) return {};
   if (values.size() != size) {

@@ -1,15 +1,51 @@
 #include "nodes/dem/dem_node_config.hpp"
 
+#include "demnerf/mechanics/solver_config_yaml.hpp"
 #include "ros_params/parameters.hpp"
 
 namespace dem_nerf {
+namespace {
 
-DemNodeConfig DemNodeConfig::fromParameters(const ros::NodeHandle& node) {
+using demnerf::core::Error;
+
+/// The solver settings: the DEM method's preset, ~solver_config over it, then the parameters that
+/// are set (as `demnerf simulate`: preset, --config, flags).
+template <class Node>
+demnerf::mechanics::SimulateOptions readSolverOptions(const Node& node, const DemNodeConfig& config) {
+  if (config.dem_method != "grid" && config.dem_method != "mlp")
+    throw Error("parameter ~dem_method must be grid or mlp, got '" + config.dem_method + "'");
+  demnerf::mechanics::SimulateOptions options = demnerf::mechanics::solverDefaults(config.dem_method, config.solver_config);
+  demnerf::mechanics::DemConfig& dem = options.dem;
+  readCount(node, "dem_iterations", dem.adam_iterations, 0);
+  readNumber(node, "dem_grid_cell", dem.grid_cell, 0.0);
+  readNumber(node, "dem_grid_spacings", dem.grid_spacings, 0.0);
+  // With the feature grid its Newton solve is the training: Adam only when asked for.
+  if ((node.hasParam("dem_grid_cell") || node.hasParam("dem_grid_spacings")) && !node.hasParam("dem_iterations"))
+    dem.adam_iterations = 0;
+  readCount(node, "threads", dem.threads, 0);
+  options.pinn.threads = dem.threads;
+  readCount(node, "fem_order", options.voxel.order, 1);
+  if (options.voxel.order > 2) throw Error("parameter ~fem_order must be 1 or 2");
+  readNumber(node, "solve_time_limit", options.control.time_limit, 0.0);
+  node.param("parametric", dem.parametric, dem.parametric);
+  std::vector<double> range{dem.load_range_min, dem.load_range_max};
+  node.param("load_range", range, range);
+  if (range.size() != 2 || !(range[0] < range[1]) || range[0] > 1.0 || range[1] < 1.0)
+    throw Error("parameter ~load_range must be [min, max] with min <= 1 <= max (scales of the trained load)");
+  dem.load_range_min = range[0];
+  dem.load_range_max = range[1];
+  // The feature grid does not take the load as an input: parametric mode trains the MLP alone.
+  if (dem.parametric) dem = demnerf::mechanics::parametricDemConfig(dem);
+  return options;
+}
+
+template <class Node>
+DemNodeConfig read(const Node& node) {
   DemNodeConfig config;
   node.param("scenario", config.scenario, config.scenario);
   node.param("solver", config.solver, config.solver);
   if (config.solver != "dem" && config.solver != "fem" && config.solver != "pinn") {
-    throw demnerf::core::Error("parameter ~solver must be dem, fem or pinn, got '" + config.solver + "'");
+    throw Error("parameter ~solver must be dem, fem or pinn, got '" + config.solver + "'");
   }
   readNumber(node, "contact_radius", config.contact_radius, 0.0);
   node.param("particles_frame", config.particles_frame, config.particles_frame);
@@ -18,40 +54,21 @@ DemNodeConfig DemNodeConfig::fromParameters(const ros::NodeHandle& node) {
   readCount(node, "render_width", config.render_width, 1);
   readCount(node, "render_height", config.render_height, 1);
   readNumber(node, "render_fov", config.render_fov, 1.0);
-  if (config.render_fov >= 180.0) throw demnerf::core::Error("parameter ~render_fov must lie below 180 degrees");
+  if (config.render_fov >= 180.0) throw Error("parameter ~render_fov must lie below 180 degrees");
   readNumber(node, "tf_timeout", config.tf_timeout, 0.0);
-  readCount(node, "threads", config.threads, 0);
-  readCount(node, "fem_order", config.fem_order, 1);
-  if (config.fem_order > 2) throw demnerf::core::Error("parameter ~fem_order must be 1 or 2");
-  readCount(node, "dem_iterations", config.dem_iterations, 0);
-  readNumber(node, "dem_grid_cell", config.dem_grid_cell, 0.0);
-  readNumber(node, "dem_grid_spacings", config.dem_grid_spacings, 0.0);
-  node.param("parametric", config.parametric, config.parametric);
-  // The feature grid does not take the load as an input: parametric mode trains the MLP alone.
-  if (config.parametric) config.dem_grid_cell = config.dem_grid_spacings = 0.0;
-  // With the feature grid its Newton solve is the training: Adam only when asked for.
-  const bool grid = config.dem_grid_cell > 0 || config.dem_grid_spacings > 0;
-  if (grid && !node.hasParam("dem_iterations")) config.dem_iterations = 0;
   readNumber(node, "max_solve_rate", config.max_solve_rate, 0.0);
-  node.param("load_range", config.load_range, config.load_range);
-  if (config.load_range.size() != 2 || !(config.load_range[0] < config.load_range[1]) || config.load_range[0] > 1.0 ||
-      config.load_range[1] < 1.0)
-    throw demnerf::core::Error("parameter ~load_range must be [min, max] with min <= 1 <= max (scales of the trained load)");
+  node.param("dem_method", config.dem_method, config.dem_method);
+  node.param("solver_config", config.solver_config, config.solver_config);
+  config.solver_options = readSolverOptions(node, config);
   return config;
 }
 
-demnerf::mechanics::SimulateOptions DemNodeConfig::simulateOptions() const {
-  demnerf::mechanics::SimulateOptions options;
-  options.voxel.order = fem_order;
-  options.dem.adam_iterations = dem_iterations;
-  options.dem.grid_cell = dem_grid_cell;
-  options.dem.grid_spacings = dem_grid_spacings;
-  options.dem.threads = threads;
-  options.dem.parametric = parametric;
-  options.dem.load_range_min = load_range[0];
-  options.dem.load_range_max = load_range[1];
-  options.pinn.threads = threads;
-  return options;
-}
+}  // namespace
+
+DemNodeConfig DemNodeConfig::fromParameters(const ros::NodeHandle& node) { return read(node); }
+
+DemNodeConfig DemNodeConfig::fromParameters(const ParameterMap& parameters) { return read(parameters); }
+
+demnerf::mechanics::SimulateOptions DemNodeConfig::simulateOptions() const { return solver_options; }
 
 }  // namespace dem_nerf

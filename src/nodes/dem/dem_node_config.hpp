@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "demnerf/mechanics/simulate.hpp"
+#include "ros_params/parameter_map.hpp"
 
 namespace dem_nerf {
 
@@ -21,24 +22,25 @@ struct DemNodeConfig {
   int render_height = 120;         ///<   CameraInfo arrives on ~render_camera_info
   double render_fov = 60.0;        ///< degrees
   double tf_timeout = 0.2;         ///< s to wait for the wrench frame
-  int threads = 0;                 ///< torch threads (0: all cores)
-  int fem_order = 1;               ///< FEM baseline: 1 linear tets (seconds), 2 quadratic (minutes on 10k particles)
-  int dem_iterations = 1500;       ///< DEM Adam iterations per load step (0 by default with a grid)
-  double dem_grid_cell = 0.0;      ///< DEM feature grid cell (m; 0: from dem_grid_spacings), DemConfig::grid_cell
-  double dem_grid_spacings = 2.0;  ///< DEM feature grid cell in particle spacings (0 and no cell: MLP only)
+  std::string dem_method = "grid";  ///< grid (the feature-grid DEM) | mlp (the paper's MLP DEM)
+  /// Solver settings YAML (config/solvers.yaml lists every key; empty: the defaults), read over
+  /// the DEM method's preset; the parameters below override it.
+  std::string solver_config;
+  /// Everything the solvers take: the method's preset, ~solver_config, then ~dem_iterations,
+  /// ~dem_grid_cell, ~dem_grid_spacings, ~threads, ~fem_order, ~parametric, ~load_range and
+  /// ~solve_time_limit when set. The defaults are the library's, as `demnerf simulate`'s.
+  demnerf::mechanics::SimulateOptions solver_options;
   /// Hz: solves start at most this often (0: no limit). Wrenches arriving in between coalesce,
   /// so a 100 Hz stream of fast solves cannot take a core from the NeRF training beside it.
   double max_solve_rate = 2.0;
-  /// DEM parametric mode: trained once over load scales in load_range (relative to the first
-  /// load it solves); later loads that only scale it within the range are answered at once.
-  bool parametric = false;
-  std::vector<double> load_range{0.0, 1.5};
 
-  /// The solver options these parameters imply.
+  /// The solver options these parameters imply (solver_options).
   demnerf::mechanics::SimulateOptions simulateOptions() const;
 
   /// Throws demnerf::core::Error naming the first bad parameter.
   static DemNodeConfig fromParameters(const ros::NodeHandle& private_node);
+  /// The same from parameters held in memory (no master; an empty map gives the defaults).
+  static DemNodeConfig fromParameters(const ParameterMap& parameters);
 };
 
 }  // namespace dem_nerf

@@ -1,0 +1,80 @@
+// dem_node's parameters without a master (ParameterMap): its defaults are the library's, which
+// `demnerf simulate` starts from too, and ~solver_config, the method and the parameters apply in
+// the same order as the CLI's preset, --config and flags.
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <fstream>
+
+#include "demnerf/core/error.hpp"
+#include "demnerf/mechanics/solver_config_yaml.hpp"
+#include "nodes/dem/dem_node_config.hpp"
+
+namespace dm = demnerf::mechanics;
+using dem_nerf::DemNodeConfig;
+using dem_nerf::ParameterMap;
+
+TEST(DemNodeConfig, DefaultsAreTheLibrarysAsForTheCli) {
+  const DemNodeConfig config = DemNodeConfig::fromParameters(ParameterMap{});
+  // Every solver setting, compared as the YAML that lists them all.
+  EXPECT_EQ(dm::solverConfigYaml(config.simulateOptions()), dm::solverConfigYaml(dm::solverDefaults()));
+  EXPECT_EQ(config.simulateOptions().dem.grid_spacings, dm::DemConfig{}.grid_spacings);
+  EXPECT_EQ(config.simulateOptions().voxel.order, dm::VoxelMeshConfig{}.order);
+  EXPECT_EQ(config.simulateOptions().control.time_limit, dm::SolveControl{}.time_limit);
+  EXPECT_EQ(config.solver, "dem");
+}
+
+TEST(DemNodeConfig, ParametersOverrideTheSolverConfigFile) {
+  const std::string path = ::testing::TempDir() + "dem_node_solvers_" + std::to_string(::getpid()) + ".yaml";
+  std::ofstream(path) << "dem: {grid_spacings: 3, width: 16}\nvoxel: {order: 1}\ncontrol: {time_limit: 10}\n";
+  const DemNodeConfig config = DemNodeConfig::fromParameters(ParameterMap{{"solver_config", path},
+                                                                           {"dem_grid_spacings", 2.5},
+                                                                           {"solve_time_limit", 20},
+                                                                           {"threads", 1}});
+  const dm::SimulateOptions o = config.simulateOptions();
+  EXPECT_EQ(o.dem.grid_spacings, 2.5);  // parameter over file
+  EXPECT_EQ(o.dem.width, 16);           // file over default
+  EXPECT_EQ(o.voxel.order, 1);
+  EXPECT_EQ(o.control.time_limit, 20.0);
+  EXPECT_EQ(o.dem.threads, 1);
+  EXPECT_EQ(o.pinn.threads, 1);
+  std::remove(path.c_str());
+}
+
+TEST(DemNodeConfig, MethodAndParametricModeUseTheLibrarysPresets) {
+  const dm::SimulateOptions mlp = DemNodeConfig::fromParameters(ParameterMap{{"dem_method", "mlp"}}).simulateOptions();
+  EXPECT_EQ(dm::solverConfigYaml(mlp), dm::solverConfigYaml(dm::solverDefaults("mlp")));
+  EXPECT_EQ(mlp.dem.boundary, dm::DemConfig::Boundary::kPenalty);
+
+  XmlRpc::XmlRpcValue range;
+  range[0] = 0.0;
+  range[1] = 1.5;
+  const dm::DemConfig parametric =
+      DemNodeConfig::fromParameters(ParameterMap{{"parametric", true}, {"load_range", range}}).simulateOptions().dem;
+  EXPECT_TRUE(parametric.parametric);
+  EXPECT_EQ(parametric.grid_spacings, 0.0);
+  EXPECT_EQ(parametric.adam_iterations, dm::paperDemConfig().adam_iterations);
+  EXPECT_EQ(parametric.load_range_max, 1.5);
+}
+
+TEST(DemNodeConfig, BadParametersAreRejectedByName) {
+  auto message = [](ParameterMap parameters) -> std::string {
+    try {
+      DemNodeConfig::fromParameters(parameters);
+    } catch (const demnerf::core::Error& e) {
+      return e.what();
+    }
+    return "";
+  };
+  EXPECT_NE(message(ParameterMap{{"dem_method", "grids"}}).find("~dem_method"), std::string::npos);
+  EXPECT_NE(message(ParameterMap{{"dem_grid_spacings", -1.0}}).find("~dem_grid_spacings"), std::string::npos);
+  EXPECT_NE(message(ParameterMap{{"solve_time_limit", -1.0}}).find("~solve_time_limit"), std::string::npos);
+  EXPECT_NE(message(ParameterMap{{"solver_config", "/nonexistent/solvers.yaml"}}).find("/nonexistent/solvers.yaml"),
+            std::string::npos);
+  XmlRpc::XmlRpcValue range;
+  range[0] = 1.2;
+  range[1] = 1.5;
+  EXPECT_NE(message(ParameterMap{{"parametric", true}, {"load_range", range}}).find("~load_range"), std::string::npos);
+}
