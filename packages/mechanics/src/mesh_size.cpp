@@ -66,11 +66,21 @@ BodyMeasures measureParticles(const core::ParticleCloud& cloud) {
   return body;
 }
 
+namespace {
+double dofsPerElement(int order) { return 3.0 * (order == 1 ? 0.2 : 1.5); }
+}  // namespace
+
+double expectedDofs(double volume, double cell, int order) {
+  return 6.0 * volume / (cell * cell * cell) * dofsPerElement(order);
+}
+
 double automaticCell(const BodyMeasures& body, const MeshSizeRule& rule) {
   if (!(rule.elements_across > 0.0) || !std::isfinite(rule.elements_across))
     throw core::Error("mesh size: elements_across must be a number > 0, got " + std::to_string(rule.elements_across));
-  if (!(rule.max_elements >= 1.0) || !std::isfinite(rule.max_elements))
-    throw core::Error("mesh size: max_elements must be a number >= 1, got " + std::to_string(rule.max_elements));
+  if (!(rule.max_dofs >= 1.0) || !std::isfinite(rule.max_dofs))
+    throw core::Error("mesh size: max_dofs must be a number >= 1, got " + std::to_string(rule.max_dofs));
+  if (rule.order != 1 && rule.order != 2)
+    throw core::Error("mesh size: order must be 1 (TET4) or 2 (TET10), got " + std::to_string(rule.order));
   const double thickness = body.thickness();
   if (!(thickness > 0.0) || !(body.volume > 0.0)) {
     std::ostringstream msg;
@@ -78,7 +88,7 @@ double automaticCell(const BodyMeasures& body, const MeshSizeRule& rule) {
     throw core::Error(msg.str());
   }
   const double accurate = thickness / rule.elements_across;
-  const double affordable = std::cbrt(6.0 * body.volume / rule.max_elements);
+  const double affordable = std::cbrt(6.0 * body.volume * dofsPerElement(rule.order) / rule.max_dofs);
   return std::max(accurate, affordable);
 }
 

@@ -64,7 +64,7 @@ SimulationOutcome simulate(const core::ParticleCloud& cloud, const core::Scenari
       if (voxel.cell == 0.0) {
         // From the body and the accuracy asked for, not from how finely it was sampled.
         const BodyMeasures body = options.surface ? measureSurface(*options.surface) : measureParticles(cloud);
-        voxel.cell = automaticCell(body, MeshSizeRule{voxel.elements_across, voxel.max_elements});
+        voxel.cell = automaticCell(body, MeshSizeRule{voxel.elements_across, voxel.max_dofs, voxel.order});
         // Voxels of the particles' own cells must each hold a particle, or the mesh has holes.
         if (!options.surface) voxel.cell = std::max(voxel.cell, medianParticleEdge(cloud));
       }

@@ -330,18 +330,22 @@ TEST(MeshSize, TheAutomaticCellFollowsTheBodyNotTheSampling) {
   EXPECT_NEAR(bar.thickness(), 4 * bar.volume / bar.area, 1e-15);
   dm::MeshSizeRule rule;
   EXPECT_NEAR(dm::automaticCell(bar, rule), bar.thickness() / rule.elements_across, 1e-15);
-  rule.elements_across = 8;  // more accuracy asked: a proportionally smaller cell
-  EXPECT_NEAR(dm::automaticCell(bar, rule), bar.thickness() / 8, 1e-15);
-  rule.max_elements = 1000;  // until the element cap binds
-  EXPECT_NEAR(dm::automaticCell(bar, rule), std::cbrt(6 * bar.volume / 1000), 1e-15);
-  // A 1 mm slab (Cook's membrane's box): the bounding box gives the thickness, and the element
-  // cap, not 1 mm / 6, sets the cell.
+  rule.elements_across = 6.5;  // more accuracy asked: a proportionally smaller cell
+  EXPECT_NEAR(dm::automaticCell(bar, rule), bar.thickness() / 6.5, 1e-15);
+  rule.max_dofs = 1000;  // until the dofs cap binds
+  EXPECT_NEAR(dm::expectedDofs(bar.volume, dm::automaticCell(bar, rule), 2), 1000, 1e-9);
+  // A 1 mm slab (Cook's membrane's box): the bounding box gives the thickness, and the dofs cap,
+  // not 1 mm / 6, sets the cell.
   const dm::BodyMeasures slab = dm::measureSurface(dm::boxSurface(Vector3d(0, 0, 0), Vector3d(0.048, 0.06, 0.001)));
   EXPECT_NEAR(slab.thickness(), 0.001, 1e-15);
   rule = {};
   const double capped = dm::automaticCell(slab, rule);
-  EXPECT_NEAR(6 * slab.volume / std::pow(capped, 3), rule.max_elements, 1e-6 * rule.max_elements);
+  EXPECT_NEAR(dm::expectedDofs(slab.volume, capped, 2), rule.max_dofs, 1e-6 * rule.max_dofs);
   EXPECT_GT(capped, 0.001 / rule.elements_across);
+  // Linear tetrahedra have ~8x fewer dofs per element, so the same cap allows a ~2x finer cell.
+  rule.order = 1;
+  EXPECT_NEAR(dm::automaticCell(slab, rule), capped / 2, 0.05 * capped);
+  rule = {};
   // The same bar sampled at two spacings gets (nearly) the same cell.
   const double coarse = dm::automaticCell(
       dm::measureParticles(dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(0.3, 0.06, 0.06), Eigen::Vector3i(20, 4, 4))), {});

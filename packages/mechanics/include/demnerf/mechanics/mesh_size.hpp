@@ -30,13 +30,19 @@ BodyMeasures measureParticles(const core::ParticleCloud& cloud);
 
 /// The rule, as VoxelMeshConfig carries it (see there for the defaults and their measured effect).
 struct MeshSizeRule {
-  double elements_across = 6.0;   ///< target elements across the body's thickness (accuracy)
-  double max_elements = 60000.0;  ///< cap on the expected tetrahedron count (cost)
+  double elements_across = 6.0;  ///< target elements across the body's thickness (accuracy)
+  double max_dofs = 60000.0;     ///< cap on the expected degrees of freedom (cost)
+  int order = 2;                 ///< 1: TET4, 2: TET10 (sets the dofs per element)
 };
 
+/// Expected degrees of freedom of a tetrahedral mesh of cell h: 6 V / h^3 tetrahedra (six per cube
+/// of edge h), times 3 x nodes per tetrahedron (TET10 1.5: Kuhn voxels 1.33, CGAL Mesh_3 ~1.7 with
+/// ~0.8 of the tetrahedra; TET4 0.2).
+double expectedDofs(double volume, double cell, int order);
+
 /// Cell (target tetrahedron edge or hex edge, m): thickness / elements_across, raised where needed
-/// so that the expected count 6 V / h^3 (six tetrahedra per cube of edge h) stays <= max_elements.
-/// Throws core::Error for a rule value that is not a positive number.
+/// so that expectedDofs() stays <= max_dofs. Throws core::Error for a rule value that is not a
+/// positive number.
 double automaticCell(const BodyMeasures& body, const MeshSizeRule& rule);
 
 }  // namespace demnerf::mechanics

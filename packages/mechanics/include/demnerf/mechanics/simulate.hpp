@@ -29,7 +29,7 @@ struct SimulateOptions {
   PinnConfig pinn;
   /// FEM mesh: hexes of this size split into tetrahedra of voxel.order; with a surface and the
   /// CGAL mesher, the target tetrahedron edge and order of the CGAL mesh. Cell 0 (default):
-  /// automatic, from the body's thickness and voxel.elements_across / max_elements (see
+  /// automatic, from the body's thickness and voxel.elements_across / max_dofs (see
   /// VoxelMeshConfig), not from the particle spacing.
   VoxelMeshConfig voxel;
   /// FEM: mesh this closed surface instead of the cells that hold particles.

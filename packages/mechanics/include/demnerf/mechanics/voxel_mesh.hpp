@@ -18,15 +18,15 @@ struct VoxelMeshConfig {
   int order = 2;  ///< 1: TET4, 2: TET10
   /// The automatic cell (cell = 0) in mechanics::simulate(): thickness / elements_across, where
   /// the thickness is the smaller of the body's bounding box's shortest side and 4 V / A (V, A:
-  /// its volume and surface area; BodyMeasures::thickness), but no smaller than the cell that
-  /// gives about max_elements tetrahedra (6 V / h^3): the accuracy knob and the cost cap.
-  /// Default 6 across: TET10 on the T-bar twist (60 mm sections -> 10 mm CGAL cells) is within
-  /// ~0.5 % (rel. L2) of a mesh twice as fine and solves in ~20 s on 2 cores; TET4 is stiffer in
-  /// torsion (order 1 needs ~4x the count for the same accuracy). Cook's membrane (1 mm slab) is
-  /// capped by max_elements: ~0.7 mm cells. Over the particle voxels the cell also stays >= the
-  /// particle spacing, so that every cell holds a particle.
+  /// its volume and surface area; BodyMeasures::thickness), but no smaller than the cell whose
+  /// mesh is expected to have max_dofs degrees of freedom (mesh_size.hpp): the accuracy knob and
+  /// the cost cap. TET10 defaults: 6 across puts 10 mm cells on the T-bar (60 mm sections), a
+  /// CGAL mesh of ~45k dofs within ~0.5 % of finer ones; Cook's membrane (a 1 mm slab) is set by
+  /// the cap instead (~0.8 mm cells, ~60 per edge). The cap keeps the single-core sparse LDLT,
+  /// whose cost grows like dofs^2, inside the default 60 s time limit on 2 cores. Over particle
+  /// voxels the cell also stays >= the particle spacing, so that every cell holds a particle.
   double elements_across = 6.0;
-  double max_elements = 60000.0;
+  double max_dofs = 60000.0;
 };
 
 /// Hexes whose centre lies inside the closed surface `mesh` (ray parity along x), split into
