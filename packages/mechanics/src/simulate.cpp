@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <sstream>
 
 #include "demnerf/core/error.hpp"
 #include "demnerf/mechanics/boundary_conditions.hpp"
@@ -68,8 +69,15 @@ SimulationOutcome simulate(const core::ParticleCloud& cloud, const core::Scenari
         // Voxels of the particles' own cells must each hold a particle, or the mesh has holes.
         if (!options.surface) voxel.cell = std::max(voxel.cell, medianParticleEdge(cloud));
       }
+      // Say what is being built before the (uninterruptible) meshing and first factorisation.
       SolveProgress meshing;
-      meshing.phase = cgal ? "mesh (CGAL)" : "mesh (voxels)";
+      {
+        const double volume = options.surface ? measureSurface(*options.surface).volume : measureParticles(cloud).volume;
+        std::ostringstream phase;
+        phase << (cgal ? "mesh (CGAL, " : "mesh (voxels, ") << (voxel.order == 2 ? "TET10" : "TET4") << ", cell "
+              << voxel.cell * 1e3 << " mm, ~" << std::lround(expectedDofs(volume, voxel.cell, voxel.order)) << " dofs)";
+        meshing.phase = phase.str();
+      }
       meshing.residual = std::numeric_limits<double>::quiet_NaN();
       clock.report(meshing, true);
       TetMesh mesh;
