@@ -66,8 +66,12 @@ SimulationOutcome simulate(const core::ParticleCloud& cloud, const core::Scenari
         // From the body and the accuracy asked for, not from how finely it was sampled.
         const BodyMeasures body = options.surface ? measureSurface(*options.surface) : measureParticles(cloud);
         voxel.cell = automaticCell(body, MeshSizeRule{voxel.elements_across, voxel.max_dofs, voxel.order});
-        // Voxels of the particles' own cells must each hold a particle, or the mesh has holes.
-        if (!options.surface) voxel.cell = std::max(voxel.cell, medianParticleEdge(cloud));
+        // Voxels of particles: a whole number of the particles' own cells (no finer: empty cells
+        // would be holes), so a grid-sampled body keeps its faces.
+        if (!options.surface) {
+          const double spacing = medianParticleEdge(cloud);
+          if (spacing > 0.0) voxel.cell = spacing * std::max(1.0, std::round(voxel.cell / spacing));
+        }
       }
       // Say what is being built before the (uninterruptible) meshing and first factorisation.
       SolveProgress meshing;

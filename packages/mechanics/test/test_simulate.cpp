@@ -85,6 +85,30 @@ TEST(VoxelMesh, GridParticlesGiveTheirCells) {
   EXPECT_NEAR(meshVolume(mesh), volume - 0.001, 1e-12);
 }
 
+TEST(VoxelMesh, CoarseCellsOverGridParticlesKeepTheBody) {
+  // 0.25 spacing, 0.5 cells: each hex is 2 x 2 x 2 particle cells, the box keeps its faces.
+  const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(2, 1, 1), Eigen::Vector3i(8, 4, 4));
+  dm::VoxelMeshConfig config;
+  config.order = 1;
+  config.cell = 0.5;
+  const dm::TetMesh mesh = dm::voxelMeshFromParticles(cloud, config);
+  double volume = 0;
+  Eigen::Vector3d lo = mesh.nodes[0], hi = lo;
+  for (const auto& e : mesh.elements) {
+    double v = 0;
+    dm::barycentricGradients({mesh.nodes[e[0]], mesh.nodes[e[1]], mesh.nodes[e[2]], mesh.nodes[e[3]]}, &v);
+    volume += v;
+  }
+  for (const auto& x : mesh.nodes) {
+    lo = lo.cwiseMin(x);
+    hi = hi.cwiseMax(x);
+  }
+  EXPECT_NEAR(volume, 2.0, 1e-12);
+  EXPECT_LT((lo - Vector3d(0, 0, 0)).norm(), 1e-12);
+  EXPECT_LT((hi - Vector3d(2, 1, 1)).norm(), 1e-12);
+  EXPECT_EQ(mesh.elements.size(), 6u * 4 * 2 * 2);
+}
+
 TEST(Simulate, FemOnParticlesReproducesUniaxialTraction) {
   const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(2, 1, 1), Eigen::Vector3i(4, 2, 2));
   const core::Scenario s = uniaxial(2e5, 2.0);

@@ -24,7 +24,8 @@ struct VoxelMeshConfig {
   /// CGAL mesh of ~45k dofs within ~0.5 % of finer ones; Cook's membrane (a 1 mm slab) is set by
   /// the cap instead (~0.8 mm cells, ~60 per edge). The cap keeps the single-core sparse LDLT,
   /// whose cost grows like dofs^2, inside the default 60 s time limit on 2 cores. Over particle
-  /// voxels the cell also stays >= the particle spacing, so that every cell holds a particle.
+  /// voxels (no surface) the cell is rounded to a whole number (>= 1) of particle spacings, so
+  /// that no cell is empty and a grid-sampled body keeps its faces.
   double elements_across = 6.0;
   double max_dofs = 60000.0;
 };
@@ -35,7 +36,10 @@ TetMesh voxelMeshFromSurface(const core::TriangleMesh& mesh, const VoxelMeshConf
 
 /// Hexes of a grid aligned with the particles (origin half a cell below the lowest particle with
 /// volume) that contain a particle with volume > 0. With config.cell = 0 the cell is the cube
-/// root of the median particle volume, which reproduces the cells of a grid-sampled cloud.
+/// root of the median particle volume (the spacing), which reproduces the cells of a
+/// grid-sampled cloud. Cells over 1.5 spacings start half a spacing below the lowest particle
+/// (on the particles' own cell boundaries) and hold when the particle volume in them is at least
+/// half theirs, so a multiple of a grid cloud's spacing keeps its faces.
 TetMesh voxelMeshFromParticles(const core::ParticleCloud& cloud, const VoxelMeshConfig& config);
 
 /// Whether `point` lies inside the closed surface (parity of crossings of a ray along +x).
