@@ -41,6 +41,11 @@ int main(int argc, char** argv) {
     if (a.count("mesher") && a["mesher"] == "voxel") options.mesher = dm::SimulateOptions::Mesher::kVoxel;
     options.voxel.order = a.count("order") ? std::atoi(a["order"].c_str()) : 2;
     options.control.time_limit = a.count("time_limit") ? std::atof(a["time_limit"].c_str()) : 0.0;
+    // The solver's own progress, one line a second on stderr.
+    options.control.progress = [](const dm::SolveProgress& p) {
+      std::fprintf(stderr, "  %s %s: load %.3f, iteration %d, energy %.6g J, |r|/|f| %.2e, %.1f s\n", p.solver.c_str(),
+                   p.phase.c_str(), p.load_fraction, p.iteration, p.energy, p.residual, p.elapsed);
+    };
     std::vector<double> factors;
     {
       std::stringstream in(a.count("factors") ? a["factors"] : "1,1.5");
