@@ -3,7 +3,7 @@
 // Usage: mechanics_tbar_fem key=value ...
 //   mode=converge (default): orders=2 (1, 2 or 12) hs=0.02,0.015,0.01,0.0075 particle_h=0.0075
 //        ref_out=PATH (the finest level at the particles, a result PLY; default: none written)
-//        scenario=PATH threads=N verbose=0|1 patch_inner=X (load patches from |x| = X, a study
+//        scenario=PATH threads=N verbose=0|1 reuse=CG_ITS (FemConfig::reuse_factorisation_iterations, both modes) patch_inner=X (load patches from |x| = X, a study
 //        variant whose patch edge is a grid line of every level)
 //        mesher=voxel|cgal (cgal: CGAL Mesh_3 tetrahedra of edge h of the T-bar's union surface)
 //        ref=PATH (also give each level's rel L2 against this result PLY at the same particles,
@@ -140,6 +140,7 @@ int main(int argc, char** argv) {
   dm::FemConfig fem_config;
   fem_config.threads = static_cast<int>(num("threads", 0));
   fem_config.verbose = num("verbose", 0) != 0;
+  if (a.count("reuse")) fem_config.reuse_factorisation_iterations = static_cast<int>(num("reuse", 30));
 
   if (str("mode", "converge") == "speed") {
     // What `demnerf simulate --particles P --scenario tbar_twist.yaml --solver fem --order 1` does
@@ -147,7 +148,6 @@ int main(int argc, char** argv) {
     const core::ParticleCloud cloud =
         a.count("particles") ? core::readParticles(a["particles"]) : tbarParticles(num("cell", 0.006));
     if (a.count("ordering") && a["ordering"] == "amd") fem_config.ordering = dm::FemConfig::Ordering::kAmd;
-    if (a.count("reuse")) fem_config.reuse_factorisation_iterations = static_cast<int>(num("reuse", 30));
     if (a.count("steps")) fem_config.load_steps = static_cast<int>(num("steps", 0));
     dm::VoxelMeshConfig voxel;
     voxel.order = static_cast<int>(num("order", 1));

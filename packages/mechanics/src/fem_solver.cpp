@@ -184,6 +184,12 @@ struct FemSolver::Impl {
   Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::NaturalOrdering<int>> ldlt_nd;  // nodes pre-ordered
   Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt_amd;
   bool analysed = false, factor_valid = false;
+  // The running solve's clock (null: no budget, no reports) and the last converged load fraction.
+  SolveClock* clock = nullptr;
+  double done = 0.0;
+  // Why the last Newton loop failed.
+  enum class Failure { kNone, kInverted, kStalled };
+  Failure failure = Failure::kNone;
   // Interpolation grid: element ids per cell.
   Eigen::Vector3d grid_lower, grid_cell;
   Eigen::Vector3i grid_dims;
@@ -213,6 +219,8 @@ struct FemSolver::Impl {
   template <int N>
   double elementEnergy(const Eigen::VectorXd& x, int e) const;
   bool newton(double scale);
+  const FemResult& solveAll();
+  void keepState();  // u -> result.displacement
   // eta: relative accuracy asked of an iterative solve (inexact Newton forcing term).
   Eigen::VectorXd solveLinear(const Eigen::VectorXd& rhs, double eta);
   int locate(const Eigen::Vector3d& x, Eigen::Vector4d& L) const;
@@ -577,7 +585,14 @@ Eigen::VectorXd FemSolver::Impl::solveLinear(const Eigen::VectorXd& rhs, double 
   if (nd()) ldlt_nd.factorize(K); else ldlt_amd.factorize(K);
   ++result.factorisations;
   factor_valid = (nd() ? ldlt_nd.info() : ldlt_amd.info()) == Eigen::Success;
-  if (!factor_valid) throw core::Error("FEM: the tangent stiffness could not be factorised");
+  if (!factor_valid) {
+    if (result.factorisations == 1 && done == 0.0)
+      throw SolveError(SolveFailure::kDegenerate,
+                       "FEM: the stiffness at the rest state is singular: the fixtures do not hold the body against "
+                       "rigid motion, or a piece of the mesh touches no fixture; widen the fixture regions");
+    // A tangent at a far-off Newton iterate can be singular: the load step is retried smaller.
+    return Eigen::VectorXd::Constant(n_free, std::numeric_limits<double>::quiet_NaN());
+  }
   result.factorisation_seconds += secondsSince(t0);
   if (config.verbose && result.factorisations == 1)
     std::cerr << "fem: " << n_free << " free dofs, nnz(K lower) " << K.nonZeros() << ", nnz(L) "
@@ -593,7 +608,13 @@ bool FemSolver::Impl::newton(double scale) {
   const int ndof = static_cast<int>(u.size());
   Eigen::VectorXd R, Kdu_c, du(ndof);
   double internal_norm = 0, last_update = std::numeric_limits<double>::infinity();
+  failure = Failure::kStalled;
   for (int it = 0; it <= config.max_newton_iterations; ++it) {
+    if (clock) {
+      std::ostringstream state;
+      state << "the state at load fraction " << done;
+      clock->check(state.str());
+    }
     // The constrained dofs move towards their targets as part of the Newton step so that large
     // prescribed displacements do not invert the first layer of elements.
     bool at_target = true;
@@ -604,12 +625,27 @@ bool FemSolver::Impl::newton(double scale) {
     auto t0 = std::chrono::steady_clock::now();
     const double e0 = assemble(u, scale, du, !at_target, R, Kdu_c, internal_norm);
     result.assembly_seconds += secondsSince(t0);
-    if (!std::isfinite(e0)) return false;
+    if (!std::isfinite(e0)) {
+      failure = Failure::kInverted;
+      return false;
+    }
     Eigen::VectorXd R_free(n_free);
     for (int d = 0; d < ndof; ++d)
       if (free_index[d] >= 0) R_free(free_index[d]) = R(d);
     const double res = R_free.norm(), ref = internal_norm + scale * f_ext.norm();
+    // Reported relative to the load (to the reactions when only displacements load the body).
+    const double load = scale * f_ext.norm() > 0.0 ? scale * f_ext.norm() : internal_norm;
+    result.residual = load > 0.0 ? res / load : res;
     if (config.verbose) std::cerr << "fem: scale " << scale << " it " << it << " |R| " << res << " ref " << ref << "\n";
+    if (clock) {
+      SolveProgress progress;
+      progress.phase = "newton";
+      progress.load_fraction = scale;
+      progress.iteration = result.newton_iterations;
+      progress.energy = e0;
+      progress.residual = result.residual;
+      clock->report(progress);
+    }
     // Residuals of tiny loads drown in the round-off of P = mu (F - F^-T) + ..., so a vanishing
     // Newton update also counts as converged.
     if (at_target && (res <= config.tolerance * ref ||
@@ -619,7 +655,7 @@ bool FemSolver::Impl::newton(double scale) {
     // term shrinks with the residual so the quadratic convergence is kept.
     const double eta = std::clamp(res / std::max(ref, 1e-300), 1e-10, 1e-4);
     const Eigen::VectorXd du_free = solveLinear(-(R_free + Kdu_c), eta);
-    if (!du_free.allFinite()) return false;
+    if (!du_free.allFinite()) return false;  // a singular tangent: stalled
     for (int d = 0; d < ndof; ++d)
       if (free_index[d] >= 0) du(d) = du_free(free_index[d]);
     ++result.newton_iterations;
@@ -627,11 +663,12 @@ bool FemSolver::Impl::newton(double scale) {
     t0 = std::chrono::steady_clock::now();
     const double slope = R.dot(du);
     double alpha = 1.0;
-    bool accepted = false;
+    bool accepted = false, any_finite = false;
     for (int k = 0; k < 12; ++k, alpha *= 0.5) {
       const Eigen::VectorXd trial = u + alpha * du;
       const double e = energy(trial, scale);
       if (!std::isfinite(e)) continue;
+      any_finite = true;
       // Near convergence energy differences drown in round-off: allow a relative slack.
       if (!at_target || e <= e0 + 1e-4 * alpha * slope + 1e-12 * std::abs(e0)) {
         last_update = alpha * du.norm();
@@ -641,59 +678,112 @@ bool FemSolver::Impl::newton(double scale) {
       }
     }
     result.line_search_seconds += secondsSince(t0);
-    if (!accepted) return false;
+    if (!accepted) {
+      if (!any_finite) failure = Failure::kInverted;
+      return false;
+    }
   }
   return false;
 }
 
 const FemResult& FemSolver::solve() {
-  Impl& m = *impl_;
+  impl_->clock = nullptr;
+  return impl_->solveAll();
+}
+
+const FemResult& FemSolver::solve(const SolveControl& control) {
+  SolveClock clock(control, "fem");
+  return solve(clock);
+}
+
+const FemResult& FemSolver::solve(SolveClock& clock) {
+  impl_->clock = &clock;
+  struct Detach {  // the clock lives only as long as this call
+    Impl& m;
+    ~Detach() { m.clock = nullptr; }
+  } detach{*impl_};
+  return impl_->solveAll();
+}
+
+void FemSolver::Impl::keepState() {
+  result.displacement.resize(mesh.nodes.size());
+  for (std::size_t i = 0; i < mesh.nodes.size(); ++i) result.displacement[i] = u.segment<3>(3 * i);
+}
+
+const FemResult& FemSolver::Impl::solveAll() {
   const auto start = std::chrono::steady_clock::now();
-  const int steps = std::max(1, m.config.load_steps > 0 ? m.config.load_steps : m.scenario.load_steps);
+  const int steps = std::max(1, config.load_steps > 0 ? config.load_steps : scenario.load_steps);
   const double nominal = 1.0 / steps;
-  double done = 0.0, step = nominal, done_before = -1.0;
+  double step = nominal, done_before = -1.0;
+  done = 0.0;
   int halvings = 0;
-  m.result = FemResult{};
+  bool all_inverted = true;
+  result = FemResult{};
   Eigen::VectorXd u_before;
   while (done < 1.0 - 1e-12) {
     const double target = std::min(1.0, done + step);
-    const Eigen::VectorXd saved = m.u;
+    const Eigen::VectorXd saved = u;
     // Secant predictor from the last two converged load levels: in a large rotation (the T-bar
     // twist) the first Newton steps from the last state overshoot badly, from the extrapolated
     // state they start near the answer.
     if (done_before >= 0.0 && done > done_before) {
-      const Eigen::VectorXd predicted = m.u + (target - done) / (done - done_before) * (m.u - u_before);
-      if (std::isfinite(m.energy(predicted, target))) m.u = predicted;
+      const Eigen::VectorXd predicted = u + (target - done) / (done - done_before) * (u - u_before);
+      if (std::isfinite(energy(predicted, target))) u = predicted;
     }
-    if (m.newton(target)) {
+    bool converged = false;
+    try {
+      converged = newton(target);
+    } catch (const SolveError&) {  // out of time or cancelled: keep the last converged state
+      u = saved;
+      keepState();
+      result.seconds = secondsSince(start);
+      throw;
+    }
+    if (converged) {
       done_before = done;
       u_before = saved;
       done = target;
-      ++m.result.load_steps;
+      ++result.load_steps;
       step = std::min(nominal, 2.0 * step);
-    } else {
-      m.u = saved;
-      step *= 0.5;
-      if (++halvings > m.config.max_step_halvings) {
-        std::ostringstream msg;
-        msg << "FEM: Newton did not converge at load fraction " << target << " even after " << m.config.max_step_halvings
-            << " step halvings (elements invert or the load is beyond what the body carries); last good fraction "
-            << done;
-        throw core::Error(msg.str());
-      }
+      continue;
+    }
+    u = saved;
+    step *= 0.5;
+    all_inverted = all_inverted && failure == Failure::kInverted;
+    if (++halvings > config.max_step_halvings) {
+      keepState();
+      result.seconds = secondsSince(start);
+      std::ostringstream msg;
+      msg << "FEM: Newton did not converge at load fraction " << target << " even after " << config.max_step_halvings
+          << " load-step halvings; kept the state at load fraction " << done << ". ";
+      if (all_inverted)
+        msg << "Every try inverted elements (det F <= 0): the load is beyond what the body carries, or the mesh has "
+               "slivers; try a smaller load, more load_steps, or a finer, better-shaped mesh";
+      else
+        msg << "Newton stalled (residual " << result.residual << " of the load): raise max_newton_iterations or "
+               "load_steps, or check that the fixtures hold the body";
+      throw SolveError(all_inverted ? SolveFailure::kInverted : SolveFailure::kNotConverged, msg.str());
     }
   }
-  m.result.displacement.resize(m.mesh.nodes.size());
-  for (std::size_t i = 0; i < m.mesh.nodes.size(); ++i) m.result.displacement[i] = m.u.segment<3>(3 * i);
-  m.result.energy = m.energy(m.u, 1.0);
-  m.result.seconds = secondsSince(start);
-  if (m.config.verbose)
-    std::cerr << "fem: " << m.result.seconds << " s: assembly " << m.result.assembly_seconds << ", factorisation "
-              << m.result.factorisation_seconds << " (" << m.result.factorisations << "), solves " << m.result.solve_seconds
-              << " (" << m.result.cg_iterations << " CG its), line search " << m.result.line_search_seconds << "; "
-              << m.result.newton_iterations << " Newton its, " << m.colours.size() << " colours, " << m.threads
+  keepState();
+  result.energy = energy(u, 1.0);
+  result.seconds = secondsSince(start);
+  if (config.verbose)
+    std::cerr << "fem: " << result.seconds << " s: assembly " << result.assembly_seconds << ", factorisation "
+              << result.factorisation_seconds << " (" << result.factorisations << "), solves " << result.solve_seconds
+              << " (" << result.cg_iterations << " CG its), line search " << result.line_search_seconds << "; "
+              << result.newton_iterations << " Newton its, " << colours.size() << " colours, " << threads
               << " threads\n";
-  return m.result;
+  if (clock) {
+    SolveProgress progress;
+    progress.phase = "done";
+    progress.load_fraction = 1.0;
+    progress.iteration = result.newton_iterations;
+    progress.energy = result.energy;
+    progress.residual = result.residual;
+    clock->report(progress, true);
+  }
+  return result;
 }
 
 void FemSolver::Impl::buildGrid() {

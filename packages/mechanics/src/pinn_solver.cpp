@@ -58,6 +58,34 @@ struct PinnSolver::Impl {
   Tensor xr, free_r, xs, normal_s, traction_s, free_s, xc, fixed_value, fixed_mask;
   Tensor vol_r, body_r, area_s, cell_r;  // cell_r: edge of each residual particle's cell, [n, 1]  // quadrature weights for the reported energy
   double fraction = 0.0;
+  // The running solve's clock (null: no budget, no reports) and when it last got a report.
+  SolveClock* clock = nullptr;
+  double last_report = -1e300;
+
+  // Stops the solve (SolveError) when the caller's budget is spent or it cancelled; the caller
+  // restores the last converged load step's network.
+  void check() const {
+    if (!clock) return;
+    std::ostringstream state;
+    state << "the network at load fraction " << fraction;
+    clock->check(state.str());
+  }
+  // One progress line at most once a second (the CLI's interval); the energy pass costs about one loss
+  // evaluation, so it runs only when a report is due. The residual column stays NaN: the
+  // PINN's loss is a mean of squared strong-form residuals, not |r| / |f_ext|.
+  void progress(const char* phase, double scale, int iteration) {
+    if (!clock) return;
+    const double now = clock->elapsed();
+    if (now - last_report < 1.0) return;
+    last_report = now;
+    SolveProgress line;
+    line.phase = phase;
+    line.load_fraction = scale;
+    line.iteration = iteration;
+    line.energy = energy(scale);
+    line.residual = std::numeric_limits<double>::quiet_NaN();
+    clock->report(line);
+  }
   bool rescaled = false;
 
   std::vector<Tensor> parameters() const {
@@ -273,6 +301,8 @@ struct PinnSolver::Impl {
     if (config.verbose) std::cerr << "pinn: output amplitude x" << alpha << " -> " << out_scale << " m\n";
   }
 
+  PinnReport solveAll();
+
   bool admissible(const Parts& p) const { return std::isfinite(p.total.item<double>()) && p.min_J > 0; }
 
   // Trains at one load fraction; false when the loss turns NaN or a particle inverts.
@@ -284,6 +314,8 @@ struct PinnSolver::Impl {
       const double decay = std::pow(std::max(config.adam_final_rate_ratio, 1e-6), 1.0 / std::max(1, n - 1));
       double lr = config.adam_learning_rate;
       for (int it = 0; it < n; ++it) {
+        check();
+        progress("adam", scale, report.iterations);
         if (!rescaled && config.rescale_every > 0 && it > 0 && it % config.rescale_every == 0 &&
             it <= config.rescale_until)
           refitAmplitude(scale);
@@ -310,6 +342,8 @@ struct PinnSolver::Impl {
                                             .tolerance_change(1e-14)
                                             .line_search_fn("strong_wolfe"));
       auto closure = [&]() -> Tensor {
+        check();
+        progress("lbfgs", scale, report.iterations);
         lbfgs.zero_grad();
         const Parts p = loss(scale);
         ++report.iterations;
@@ -464,32 +498,60 @@ PinnSolver::PinnSolver(core::ParticleCloud cloud, const core::Scenario& scenario
 }
 
 PinnReport PinnSolver::solve() {
-  Impl& m = *impl_;
+  impl_->clock = nullptr;
+  return impl_->solveAll();
+}
+
+PinnReport PinnSolver::solve(const SolveControl& control) {
+  SolveClock clock(control, "pinn");
+  return solve(clock);
+}
+
+PinnReport PinnSolver::solve(SolveClock& clock) {
+  impl_->clock = &clock;
+  impl_->last_report = -1e300;
+  struct Detach {  // the clock lives only as long as this call
+    Impl& m;
+    ~Detach() { m.clock = nullptr; }
+  } detach{*impl_};
+  return impl_->solveAll();
+}
+
+PinnReport PinnSolver::Impl::solveAll() {
+  Impl& m = *this;
   const auto start = std::chrono::steady_clock::now();
   PinnReport report;
   std::vector<Tensor> saved;
   double saved_out = 0.0, saved_stress = 0.0;
-  report.load_steps = runAdaptiveLoadSteps(
-      m.config.load_steps > 0 ? m.config.load_steps : m.scenario.load_steps, m.config.max_halvings,
-      [&](double target) {
-        saved = m.snapshot();
-        saved_out = m.out_scale;
-        saved_stress = m.stress_scale;
-        if (!m.train(target, report)) return false;
-        m.fraction = target;
-        return true;
-      },
-      [&](double) {
-        m.restore(saved);
-        m.out_scale = saved_out;
-        m.stress_scale = saved_stress;
-      },
-      "PINN", "Use more load_steps, a smaller adam_learning_rate or a smaller load.", m.config.verbose);
+  auto undo = [&](double) {
+    m.restore(saved);
+    m.out_scale = saved_out;
+    m.stress_scale = saved_stress;
+  };
+  try {
+    report.load_steps = runAdaptiveLoadSteps(
+        m.config.load_steps > 0 ? m.config.load_steps : m.scenario.load_steps, m.config.max_halvings,
+        [&](double target) {
+          saved = m.snapshot();
+          saved_out = m.out_scale;
+          saved_stress = m.stress_scale;
+          if (!m.train(target, report)) return false;
+          m.fraction = target;
+          return true;
+        },
+        undo, "PINN", "Use more load_steps, a smaller adam_learning_rate or a smaller load.", m.config.verbose);
+  } catch (const SolveError&) {  // out of time or cancelled inside a step: back to the last good one
+    if (!saved.empty()) undo(m.fraction);
+    throw;
+  } catch (const core::Error& e) {  // every halving inverted particles or turned NaN
+    throw SolveError(SolveFailure::kInverted, e.what());
+  }
   m.fraction = 1.0;
   {
     torch::NoGradGuard guard;
     const Impl::Parts p = m.loss(1.0);
-    if (!m.admissible(p)) throw core::Error("PINN: the trained field is not admissible (NaN or det F <= 0)");
+    if (!m.admissible(p))
+      throw SolveError(SolveFailure::kInverted, "PINN: the trained field is not admissible (NaN or det F <= 0)");
     report.loss = p.total.item<double>();
     report.residual_mse = p.residual.item<double>();
     report.traction_mse = p.traction.item<double>();

@@ -147,23 +147,28 @@ TetMesh voxelMeshFromParticles(const core::ParticleCloud& cloud, const VoxelMesh
       hi = hi.cwiseMax(cloud.positions[i]);
     }
   if (volumes.empty()) throw core::Error("voxel mesh: the particle cloud has no particle with volume > 0");
-  double cell = config.cell;
-  if (cell == 0.0) {
-    std::nth_element(volumes.begin(), volumes.begin() + volumes.size() / 2, volumes.end());
-    cell = std::cbrt(volumes[volumes.size() / 2]);
-  }
+  std::nth_element(volumes.begin(), volumes.begin() + volumes.size() / 2, volumes.end());
+  const double spacing = std::cbrt(volumes[volumes.size() / 2]);
+  const double cell = config.cell > 0.0 ? config.cell : spacing;
   checkCell(cell);
-  const Eigen::Vector3d lower = lo - Eigen::Vector3d::Constant(0.5 * cell);
+  // Cells coarser than the particles' own start on the particles' cell boundaries (a whole number
+  // of particle cells each when cell is a multiple of the spacing) and hold when the particles in
+  // them fill at least half of them: "holds a particle" would widen the body by up to a cell.
+  const bool coarse = cell > 1.5 * spacing;
+  const Eigen::Vector3d lower = lo - Eigen::Vector3d::Constant(0.5 * (coarse ? spacing : cell));
   const Eigen::Vector3i dims = (((hi - lower) / cell).array().floor() + 1.0).cast<int>().matrix();
   if (static_cast<double>(dims.prod()) > 2e7)
     throw core::Error("voxel mesh: cell size " + std::to_string(cell) + " gives too many cells; use a larger one");
-  std::vector<char> active(static_cast<std::size_t>(dims.prod()), 0);
+  std::vector<double> filled(static_cast<std::size_t>(dims.prod()), 0.0);
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     if (!(cloud.volumes[i] > 0)) continue;
     Eigen::Vector3i c = ((cloud.positions[i] - lower) / cell).array().floor().cast<int>().matrix();
     for (int a = 0; a < 3; ++a) c(a) = std::clamp(c(a), 0, dims(a) - 1);
-    active[c(0) + dims(0) * (c(1) + static_cast<std::size_t>(dims(1)) * c(2))] = 1;
+    filled[c(0) + dims(0) * (c(1) + static_cast<std::size_t>(dims(1)) * c(2))] += cloud.volumes[i];
   }
+  std::vector<char> active(filled.size(), 0);
+  for (std::size_t k = 0; k < filled.size(); ++k)
+    active[k] = coarse ? filled[k] >= 0.5 * cell * cell * cell : filled[k] > 0.0;
   return tetsFromCells(lower, Eigen::Vector3d::Constant(cell), dims, active, config.order);
 }
 

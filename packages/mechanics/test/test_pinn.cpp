@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
 #include <iostream>
 #include <limits>
@@ -101,6 +102,48 @@ TEST(Pinn, BadInputFailsBeforeTraining) {
   // A valid problem constructs without training (the network starts at rest).
   dm::PinnSolver idle(cloud, s);
   for (const auto& u : idle.predict(cloud.positions)) EXPECT_EQ(u.norm(), 0.0);
+}
+
+TEST(Pinn, SolveControlStopsAndReports) {
+  const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(3, 3, 3));
+  const core::Scenario s = uniaxial(1e5);
+  dm::PinnConfig config;
+  config.width = 8;
+  config.depth = 1;
+  config.adam_iterations = 20;
+  config.lbfgs_iterations = 5;
+  config.threads = 1;
+  auto cause = [&](const dm::SolveControl& control) {
+    dm::PinnSolver pinn(cloud, s, config);
+    try {
+      pinn.solve(control);
+    } catch (const dm::SolveError& e) {
+      // Stopped inside the first load step: the network is back at rest, not half-trained.
+      for (const auto& u : pinn.predict(cloud.positions)) EXPECT_EQ(u.norm(), 0.0);
+      return std::string(dm::solveFailureName(e.failure()));
+    }
+    return std::string("converged");
+  };
+  std::atomic<bool> cancel{true};
+  dm::SolveControl cancelled;
+  cancelled.cancel = &cancel;
+  EXPECT_EQ(cause(cancelled), "cancelled");
+  dm::SolveControl hurried;
+  hurried.time_limit = 1e-9;
+  EXPECT_EQ(cause(hurried), "time_limit");
+  // Reports come at most once a second after the first, which comes at the first iteration.
+  std::vector<dm::SolveProgress> seen;
+  dm::SolveControl watched;
+  watched.progress_interval = 0.0;
+  watched.progress = [&](const dm::SolveProgress& p) { seen.push_back(p); };
+  EXPECT_EQ(cause(watched), "converged");
+  ASSERT_FALSE(seen.empty());
+  for (const auto& p : seen) {
+    EXPECT_EQ(p.solver, "pinn");
+    EXPECT_TRUE(p.phase == "adam" || p.phase == "lbfgs") << p.phase;
+    EXPECT_GT(p.load_fraction, 0.0);
+    EXPECT_TRUE(std::isfinite(p.energy));
+  }
 }
 
 }  // namespace

@@ -1,10 +1,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
+#include <vector>
 
 #include "demnerf/core/error.hpp"
 #include "demnerf/mechanics/box_particles.hpp"
 #include "demnerf/mechanics/compare_results.hpp"
+#include "demnerf/mechanics/mesh_size.hpp"
 #include "demnerf/mechanics/reference_problems.hpp"
 #include "demnerf/mechanics/simulate.hpp"
 #include "demnerf/mechanics/voxel_mesh.hpp"
@@ -82,6 +85,30 @@ TEST(VoxelMesh, GridParticlesGiveTheirCells) {
   EXPECT_NEAR(meshVolume(mesh), volume - 0.001, 1e-12);
 }
 
+TEST(VoxelMesh, CoarseCellsOverGridParticlesKeepTheBody) {
+  // 0.25 spacing, 0.5 cells: each hex is 2 x 2 x 2 particle cells, the box keeps its faces.
+  const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(2, 1, 1), Eigen::Vector3i(8, 4, 4));
+  dm::VoxelMeshConfig config;
+  config.order = 1;
+  config.cell = 0.5;
+  const dm::TetMesh mesh = dm::voxelMeshFromParticles(cloud, config);
+  double volume = 0;
+  Eigen::Vector3d lo = mesh.nodes[0], hi = lo;
+  for (const auto& e : mesh.elements) {
+    double v = 0;
+    dm::barycentricGradients({mesh.nodes[e[0]], mesh.nodes[e[1]], mesh.nodes[e[2]], mesh.nodes[e[3]]}, &v);
+    volume += v;
+  }
+  for (const auto& x : mesh.nodes) {
+    lo = lo.cwiseMin(x);
+    hi = hi.cwiseMax(x);
+  }
+  EXPECT_NEAR(volume, 2.0, 1e-12);
+  EXPECT_LT((lo - Vector3d(0, 0, 0)).norm(), 1e-12);
+  EXPECT_LT((hi - Vector3d(2, 1, 1)).norm(), 1e-12);
+  EXPECT_EQ(mesh.elements.size(), 6u * 4 * 2 * 2);
+}
+
 TEST(Simulate, FemOnParticlesReproducesUniaxialTraction) {
   const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(2, 1, 1), Eigen::Vector3i(4, 2, 2));
   const core::Scenario s = uniaxial(2e5, 2.0);
@@ -108,6 +135,35 @@ TEST(Simulate, FemOnParticlesReproducesUniaxialTraction) {
     EXPECT_NEAR(out.max_displacement, largest, 1e-7);
     EXPECT_LT(out.energy, 0.0);  // a dead load does positive work: Pi = W - work < 0
     EXPECT_GT(out.mesh_elements, 0);
+  }
+}
+
+TEST(Simulate, FemMeshesFromTheBodyReportsAndStopsOnTime) {
+  const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(2, 1, 1), Eigen::Vector3i(8, 4, 4));
+  const core::Scenario s = uniaxial(2e5, 2.0);
+  dm::SimulateOptions options;
+  options.voxel.order = 1;
+  options.surface = boxSurface(Vector3d(0, 0, 0), Vector3d(2, 1, 1));
+  std::vector<std::string> phases;
+  options.control.progress_interval = 0.0;
+  options.control.progress = [&](const dm::SolveProgress& p) { phases.push_back(p.phase); };
+  const dm::SimulationOutcome out = dm::simulate(cloud, s, dm::SolverChoice::kFem, options);
+  // The cell is the body's rule (thickness / elements_across), not the 0.25 particle spacing.
+  dm::MeshSizeRule rule;
+  rule.order = 1;
+  EXPECT_DOUBLE_EQ(out.mesh_cell, dm::automaticCell(dm::measureSurface(*options.surface), rule));
+  EXPECT_NE(out.mesh_cell, 0.25);
+  ASSERT_GE(phases.size(), 3u);
+  EXPECT_EQ(phases.front().rfind("mesh (CGAL, TET4, cell ", 0), 0u) << phases.front();
+  EXPECT_EQ(phases[1], "newton");
+  EXPECT_EQ(phases.back(), "done");
+  // A budget spent before the solve stops it with the cause, not with a field.
+  options.control.time_limit = 1e-9;
+  try {
+    dm::simulate(cloud, s, dm::SolverChoice::kFem, options);
+    ADD_FAILURE() << "a spent time budget still gave a field";
+  } catch (const dm::SolveError& e) {
+    EXPECT_EQ(e.failure(), dm::SolveFailure::kTimeLimit) << e.what();
   }
 }
 

@@ -10,6 +10,7 @@
 
 #include "demnerf/core/scenario.hpp"
 #include "demnerf/mechanics/material.hpp"
+#include "demnerf/mechanics/solve_control.hpp"
 #include "demnerf/mechanics/tet_mesh.hpp"
 
 namespace demnerf::mechanics {
@@ -28,8 +29,11 @@ struct FemConfig {
   /// (16 iterations vs 27 in the scenario's 4): a step that fails is halved, later steps start
   /// from a secant predictor.
   int load_steps = 1;
-  /// Threads for element assembly (0: all cores). Results do not depend on the count: elements
-  /// are coloured so that no two in a colour share a node, and each colour is summed in order.
+  /// Threads for element assembly and the line search's energy evaluations (0: all cores, the
+  /// default). Results do not depend on the count:
+  /// elements are coloured so that no two in a colour share a node, and each colour is summed in
+  /// order. The sparse LDLT (Eigen's SimplicialLDLT) and its triangular solves run on one core;
+  /// the factorisation reuse below keeps factorisations to a few per solve.
   int threads = 0;
   /// LDLT only: solve with preconditioned CG using the last factorisation as preconditioner and
   /// refactorise only when CG needs more than this many iterations (0: factorise every Newton step).
@@ -57,6 +61,7 @@ struct FemResult {
   int load_steps = 0;                          ///< taken, halvings included
   int factorisations = 0;                      ///< sparse LDLT factorisations
   int cg_iterations = 0;                       ///< preconditioned CG iterations (reused factors)
+  double residual = 0.0;                       ///< final |residual| / |external load| (free dofs)
   double seconds = 0.0;
   double assembly_seconds = 0.0, factorisation_seconds = 0.0, solve_seconds = 0.0, line_search_seconds = 0.0;
 };
@@ -70,9 +75,19 @@ class FemSolver {
   ~FemSolver();
   FemSolver(FemSolver&&) noexcept;
 
-  /// Applies the scenario in scenario.load_steps increments (halved on failure). Throws
-  /// core::Error when Newton cannot converge even with the smallest step.
+  /// Applies the scenario in config.load_steps increments (halved on failure), with no time limit
+  /// and no progress reports. Throws SolveError (a core::Error) when Newton cannot converge even
+  /// with the smallest step: kInverted when every try inverted elements, kNotConverged otherwise,
+  /// kDegenerate when nothing is held; the solver then keeps the last converged load fraction's
+  /// state (result().displacement).
   const FemResult& solve();
+  /// The same under a time budget, progress sink and cancel flag: one report per Newton iteration
+  /// at most every control.progress_interval (load fraction, iteration, energy, |r| / |f_ext|),
+  /// and control.check() between Newton iterations (SolveError kTimeLimit / kCancelled).
+  const FemResult& solve(const SolveControl& control);
+  /// The same on a clock the caller started, so that time spent before the solve (meshing)
+  /// counts against the budget.
+  const FemResult& solve(SolveClock& clock);
   const FemResult& result() const;
   const TetMesh& mesh() const;
   /// Displacement and von Mises stress at points: interpolated in the containing element, or

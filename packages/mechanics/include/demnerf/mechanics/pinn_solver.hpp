@@ -10,6 +10,7 @@
 
 #include "demnerf/core/ply.hpp"
 #include "demnerf/core/scenario.hpp"
+#include "demnerf/mechanics/solve_control.hpp"
 
 namespace demnerf::mechanics {
 
@@ -79,10 +80,18 @@ class PinnSolver {
   ~PinnSolver();
   PinnSolver(PinnSolver&&) noexcept;
 
-  /// Trains over the load steps, warm-started from the current network. Throws core::Error when
-  /// a step inverts particles or turns NaN even with the smallest step (the network then keeps
-  /// the last good state).
+  /// Trains over the load steps, warm-started from the current network, with no time limit and
+  /// no progress reports. Throws SolveError{kInverted} (a core::Error) when a step inverts
+  /// particles or turns NaN even with the smallest step (the network then keeps the last good
+  /// state).
   PinnReport solve();
+  /// The same under a time budget, progress sink and cancel flag: control.check() at every Adam
+  /// iteration and L-BFGS evaluation (SolveError kTimeLimit / kCancelled; the network goes back
+  /// to the last completed load step), and a report (phase adam / lbfgs, load fraction,
+  /// iteration, energy of the current field) at most once per progress interval.
+  PinnReport solve(const SolveControl& control);
+  /// The same on a clock the caller started.
+  PinnReport solve(SolveClock& clock);
   /// Displacement at arbitrary points.
   std::vector<Eigen::Vector3d> predict(const std::vector<Eigen::Vector3d>& points) const;
   /// Rest positions, displacement and von Mises stress at the particles, in their order.

@@ -27,9 +27,10 @@ struct SimulateOptions {
   std::string dem_model_path;
   FemConfig fem;
   PinnConfig pinn;
-  /// FEM mesh: hexes of this size (0: the cube root of the median particle volume), split into
-  /// tetrahedra of voxel.order. With a surface and the CGAL mesher, the target tetrahedron edge
-  /// (same automatic rule) and order of the CGAL mesh.
+  /// FEM mesh: hexes of this size split into tetrahedra of voxel.order; with a surface and the
+  /// CGAL mesher, the target tetrahedron edge and order of the CGAL mesh. Cell 0 (default):
+  /// automatic, from the body's thickness and voxel.elements_across / max_dofs (see
+  /// VoxelMeshConfig), not from the particle spacing.
   VoxelMeshConfig voxel;
   /// FEM: mesh this closed surface instead of the cells that hold particles.
   std::optional<core::TriangleMesh> surface;
@@ -49,6 +50,7 @@ struct SimulationOutcome {
   double max_displacement = 0.0;  ///< largest |u| over the particles (m)
   int mesh_nodes = 0;             ///< FEM only
   int mesh_elements = 0;          ///< FEM only
+  double mesh_cell = 0.0;         ///< FEM only: the cell (target edge) the mesh was made with (m)
 };
 
 /// Solves the scenario on the particles. Throws core::Error for bad input (before any work) or a
