@@ -53,6 +53,7 @@ int main(int argc, char** argv) {
   // The MLP alone unless grid= or grid_spacings= asks for the feature grid (DemConfig's default).
   config.adam_iterations = static_cast<int>(num("iters", 1500));
   config.grid_spacings = num("grid_spacings", 0.0);
+  config.grid_body_cells = num("grid_body_cells", 0.0);
   config.adam_learning_rate = num("lr", config.adam_learning_rate);
   config.adam_final_rate_ratio = num("final", config.adam_final_rate_ratio);
   config.lbfgs_iterations = static_cast<int>(num("lbfgs", 0));

@@ -62,9 +62,14 @@ void applyDemFlags(const Arguments& arguments, mechanics::DemConfig& dem) {
     if (!(dem.grid_spacings > 0))
       throw UsageError("option --grid-spacings expects the feature grid's cell in particle spacings (> 0; 2 is a good choice)");
   }
+  if (arguments.has("grid-body-cells")) {
+    dem.grid_body_cells = arguments.number("grid-body-cells");
+    if (!(dem.grid_body_cells > 0))
+      throw UsageError("option --grid-body-cells expects how many grid cells the body's volume holds (> 0; 600 by default)");
+  }
+  const bool grid_flag = arguments.has("grid-cell") || arguments.has("grid-spacings") || arguments.has("grid-body-cells");
   // With the feature grid its Newton solve is the training: Adam only when --iterations asks.
-  if ((arguments.has("grid-cell") || arguments.has("grid-spacings")) && !arguments.has("iterations"))
-    dem.adam_iterations = 0;
+  if (grid_flag && !arguments.has("iterations")) dem.adam_iterations = 0;
   if (arguments.has("boundary")) {
     const std::string boundary = arguments.text("boundary");
     if (boundary == "penalty") dem.boundary = mechanics::DemConfig::Boundary::kPenalty;
@@ -72,14 +77,14 @@ void applyDemFlags(const Arguments& arguments, mechanics::DemConfig& dem) {
     else throw UsageError("option --boundary expects exact or penalty, got '" + boundary + "'");
   }
   if (arguments.has("load-range")) {
-    if (arguments.has("grid-cell") || arguments.has("grid-spacings"))
+    if (grid_flag)
       throw UsageError("option --load-range trains the MLP alone (the feature grid does not take the load): drop "
-                       "--grid-cell / --grid-spacings");
+                       "--grid-cell / --grid-spacings / --grid-body-cells");
     std::tie(dem.load_range_min, dem.load_range_max) = loadRange(arguments.text("load-range"));
     dem.parametric = true;
   }
   if (dem.parametric) dem = mechanics::parametricDemConfig(dem);
-  if (dem.output_newton && !dem.parametric && (dem.grid_cell > 0 || dem.grid_spacings > 0))
+  if (dem.output_newton && !dem.parametric && (dem.grid_cell > 0 || dem.grid_spacings > 0 || dem.grid_body_cells > 0))
     throw UsageError("option --newton solves the MLP's output layer, which the feature grid takes over: use "
                      "--method mlp --boundary exact --newton");
 }
@@ -116,7 +121,7 @@ mechanics::SimulateOptions settings(const Arguments& arguments) {
 Figures runSimulate(const Arguments& arguments) {
   arguments.rejectUnknown({"particles", "scenario", "solver", "mesh", "out", "cell", "order", "iterations", "width",
                            "depth", "boundary", "threads", "json", "quiet", "save-model", "load-range", "newton",
-                           "grid-cell", "grid-spacings", "mesher", "method", "config", "time-limit", "print-config"});
+                           "grid-cell", "grid-spacings", "grid-body-cells", "mesher", "method", "config", "time-limit", "print-config"});
   mechanics::SimulateOptions options = settings(arguments);
   if (arguments.flag("print-config")) {
     std::cout << "# demnerf solver settings (demnerf simulate --config FILE, dem_node ~solver_config): every key\n"
@@ -186,18 +191,22 @@ const char* usage() {
          "  --print-config         print the settings these options give, as a --config file, and exit\n"
          "  --json                 last line of stdout: the figures as one JSON object\n"
          "DEM:\n"
-         "  --method grid|mlp      default grid: the MLP plus a B-spline feature grid "
-      << number(d.dem.grid_spacings)
-      << " particle spacings wide,\n"
-         "                         solved by Newton; mlp: the paper's DEM, the MLP alone trained by Adam\n"
+         "  --method grid|mlp      default grid: the MLP plus a B-spline feature grid whose cells the body\n"
+         "                         holds "
+      << number(d.dem.grid_body_cells)
+      << " times, integrated by Gauss points in its cells and solved by Newton;\n"
+         "                         mlp: the paper's DEM, the MLP alone trained by Adam\n"
          "                         ("
       << mlp.adam_iterations << " steps per load step) with the penalty boundary\n"
+         "  --grid-body-cells N    default "
+      << number(d.dem.grid_body_cells)
+      << ": grid cells in the body's volume, cell = (V / N)^(1/3) (not below the particle spacing)\n"
          "  --grid-spacings S      default "
       << number(d.dem.grid_spacings)
-      << " (grid): feature grid cell in particle spacings (below 1.5 is refused)\n"
+      << " (off): cell in particle spacings instead; takes precedence over --grid-body-cells\n"
          "  --grid-cell H          default "
       << number(d.dem.grid_cell)
-      << " (from --grid-spacings): feature grid cell edge in m; either grid flag sets Adam to 0\n"
+      << " (off): cell edge in m; takes precedence over both; any grid flag sets Adam to 0\n"
          "  --iterations N         Adam iterations per load step (default: grid "
       << d.dem.adam_iterations << ", mlp " << mlp.adam_iterations << ", PINN " << d.pinn.adam_iterations
       << ")\n"

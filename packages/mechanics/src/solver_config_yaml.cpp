@@ -247,7 +247,11 @@ std::vector<Field> fields(SimulateOptions& o) {
   append(pinnFields(o.pinn));
   append({number("voxel", "cell", o.voxel.cell, 0, false, kInf,
                  "FEM mesh size in m: hex edge, or CGAL tetrahedron edge (0: automatic)"),
-          integer("voxel", "order", o.voxel.order, 1, 2, "FEM elements: 1 TET4, 2 TET10")});
+          integer("voxel", "order", o.voxel.order, 1, 2, "FEM elements: 1 TET4, 2 TET10"),
+          number("voxel", "elements_across", o.voxel.elements_across, 0, true, kInf,
+                 "automatic FEM cell: the body's thickness over this many elements"),
+          number("voxel", "max_dofs", o.voxel.max_dofs, 1, false, kInf,
+                 "automatic FEM cell: coarsened until the mesh is expected to hold at most this many dofs")});
   using M = SimulateOptions::Mesher;
   append({choice<M>("", "mesher", o.mesher, {{"cgal", M::kCgal}, {"voxel", M::kVoxel}},
                     "how the FEM meshes a surface (--mesh)")});
