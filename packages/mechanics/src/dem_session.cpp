@@ -100,4 +100,20 @@ DemSessionAnswer DemSession::answer(const core::Scenario& scenario) {
   return answer;
 }
 
+// Stand-in until the DEM solver takes the control itself (the lead's DemSolver::setControl): the
+// cancel flag and time budget are checked before the solve starts, progress is reported around it.
+DemSessionAnswer DemSession::answer(const core::Scenario& scenario, const SolveControl& control) {
+  SolveClock clock(control, "dem");
+  clock.check("the previous answer");
+  SolveProgress progress;
+  progress.phase = "start";
+  clock.report(progress, true);
+  DemSessionAnswer result = answer(scenario);
+  progress.phase = "done";
+  progress.load_fraction = 1.0;
+  progress.energy = result.outcome.energy;
+  clock.report(progress, true);
+  return result;
+}
+
 }  // namespace demnerf::mechanics

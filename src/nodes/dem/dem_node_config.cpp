@@ -37,6 +37,10 @@ DemNodeConfig DemNodeConfig::fromParameters(const ros::NodeHandle& node) {
   if (config.load_range.size() != 2 || !(config.load_range[0] < config.load_range[1]) || config.load_range[0] > 1.0 ||
       config.load_range[1] < 1.0)
     throw demnerf::core::Error("parameter ~load_range must be [min, max] with min <= 1 <= max (scales of the trained load)");
+  readCount(node, "max_particles", config.max_particles, 1);
+  readNumber(node, "solve_time_limit", config.solve_time_limit, 0.0);
+  readNumber(node, "supersede_after", config.supersede_after, 0.0);
+  readCount(node, "max_render_pixels", config.max_render_pixels, 1);
   return config;
 }
 
@@ -51,6 +55,7 @@ demnerf::mechanics::SimulateOptions DemNodeConfig::simulateOptions() const {
   options.dem.load_range_min = load_range[0];
   options.dem.load_range_max = load_range[1];
   options.pinn.threads = threads;
+  options.control.time_limit = solve_time_limit;
   return options;
 }
 

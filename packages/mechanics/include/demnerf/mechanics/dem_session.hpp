@@ -12,6 +12,7 @@
 #include "demnerf/core/scenario.hpp"
 #include "demnerf/mechanics/dem_solver.hpp"
 #include "demnerf/mechanics/simulate.hpp"
+#include "demnerf/mechanics/solve_control.hpp"
 
 namespace demnerf::mechanics {
 
@@ -39,6 +40,8 @@ class DemSession {
   /// Solves the scenario on the current particles (core::Error when there are none, for bad
   /// input, or a failed solve; after a failed solve the next answer starts cold).
   DemSessionAnswer answer(const core::Scenario& scenario);
+  /// The same within a time budget, with progress and a cancel flag (mechanics::SolveError then).
+  DemSessionAnswer answer(const core::Scenario& scenario, const SolveControl& control);
 
  private:
   DemConfig config_;
