@@ -76,16 +76,19 @@ sensor_msgs::PointCloud2 mutateCloud(Rng& rng) {
   sensor_msgs::PointCloud2 m = barCloud();
   const int mutations = 1 + below(rng, 3);
   for (int k = 0; k < mutations; ++k) {
-    switch (below(rng, 12)) {
+    const int kind = below(rng, 12);
+    if (m.fields.empty() && kind >= 5 && kind <= 8) continue;  // nothing left to mutate there
+    if (m.data.size() < 4 && kind == 9) continue;
+    switch (kind) {
       case 0: m.width = evilSize(rng, m.width); break;
       case 1: m.height = evilSize(rng, m.height); break;
       case 2: m.point_step = evilSize(rng, m.point_step); break;
       case 3: m.row_step = evilSize(rng, m.row_step); break;
       case 4: m.data.resize(below(rng, 3) == 0 ? 0 : m.data.size() / (1 + below(rng, 4))); break;
-      case 5: m.fields[below(rng, m.fields.size())].offset = evilSize(rng, 4); break;
-      case 6: m.fields[below(rng, m.fields.size())].datatype = static_cast<std::uint8_t>(below(rng, 12)); break;
-      case 7: m.fields[below(rng, m.fields.size())].count = evilSize(rng, 1); break;
-      case 8: m.fields.erase(m.fields.begin() + below(rng, m.fields.size())); break;
+      case 5: m.fields[below(rng, static_cast<int>(m.fields.size()))].offset = evilSize(rng, 4); break;
+      case 6: m.fields[below(rng, static_cast<int>(m.fields.size()))].datatype = static_cast<std::uint8_t>(below(rng, 12)); break;
+      case 7: m.fields[below(rng, static_cast<int>(m.fields.size()))].count = evilSize(rng, 1); break;
+      case 8: m.fields.erase(m.fields.begin() + below(rng, static_cast<int>(m.fields.size()))); break;
       case 9: {  // NaN, Inf or huge coordinates in the data
         const float value = static_cast<float>(evil(rng, 0.05));
         const std::size_t at = 4 * static_cast<std::size_t>(below(rng, static_cast<int>(m.data.size() / 4)));
@@ -150,7 +153,10 @@ dem_nerf::LoadCase mutateLoadCase(Rng& rng) {
   dem_nerf::LoadCase m = goodLoadCase();
   const int mutations = 1 + below(rng, 3);
   for (int k = 0; k < mutations; ++k) {
-    switch (below(rng, 9)) {
+    const int kind = below(rng, 9);
+    if ((m.fixtures.empty() && (kind == 0 || kind == 7)) || (m.loads.empty() && (kind == 1 || kind == 4 || kind == 5)))
+      continue;  // cleared by an earlier mutation
+    switch (kind) {
       case 0: mutateRegion(rng, m.fixtures[0].region); break;
       case 1: mutateRegion(rng, m.loads[0].region); break;
       case 2: m.fixtures.clear(); break;

@@ -55,6 +55,12 @@ class LatestWinsWorker {
     return running_ || waiting_.has_value();
   }
 
+  /// True while a job waits to start.
+  bool busyWithWaiting() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return waiting_.has_value();
+  }
+
   /// Blocks until no job runs or waits (for tests and shutdown).
   void waitIdle() {
     std::unique_lock<std::mutex> lock(mutex_);

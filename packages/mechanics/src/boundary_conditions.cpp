@@ -156,6 +156,9 @@ void checkSupports(const Dirichlet& dirichlet, const core::ParticleCloud& cloud,
 }
 
 void validateProblem(const core::Scenario& scenario, const core::ParticleCloud& cloud) {
+  if (scenario.fixtures.empty())
+    throw SolveError(SolveFailure::kDegenerate, "scenario '" + scenario.name +
+                                                    "' has no fixture, so the body can move freely; add a fixture");
   scenario.validate("scenario '" + scenario.name + "'");
   makeMaterial(scenario.material);
   cloud.validate();
@@ -163,9 +166,6 @@ void validateProblem(const core::Scenario& scenario, const core::ParticleCloud& 
   for (std::size_t i = 0; i < cloud.size(); ++i)
     if (!(cloud.volumes[i] >= 0.0))
       throw core::Error("particle " + std::to_string(i) + " has a negative volume " + std::to_string(cloud.volumes[i]));
-  if (scenario.fixtures.empty())
-    throw SolveError(SolveFailure::kDegenerate, "scenario '" + scenario.name +
-                                                    "' has no fixture, so the body can move freely; add a fixture");
   checkSupports(resolveFixtures(scenario, cloud.positions), cloud, "scenario '" + scenario.name + "'");
   particleTractions(scenario, cloud);
 }

@@ -153,15 +153,15 @@ TEST(BoundaryConditions, DegenerateSupportsAreRefusedBeforeSolving) {
   none.fixtures.clear();
   EXPECT_EQ(degeneracyOf(none, c), dm::SolveFailure::kDegenerate);
 
-  // One pinned particle (a corner) plus the tip load: rotations about it are free.
+  // One pinned particle plus the tip load: rotations about it are free.
   core::Scenario pinned = s;
-  pinned.fixtures[0].region = box(Vector3d(0, 0, 0), Vector3d(1e-3, 1e-3, 1e-3));
+  pinned.fixtures[0].region = box(c.positions[0], Vector3d(1e-6, 1e-6, 1e-6));
   EXPECT_EQ(dm::resolveFixtures(pinned, c.positions).index.size(), 1u);
   EXPECT_EQ(degeneracyOf(pinned, c), dm::SolveFailure::kDegenerate);
 
-  // Pins along one edge: the rotation about that edge is free.
+  // Pins along one line (through the first particle, along x): the rotation about it is free.
   core::Scenario edge = s;
-  edge.fixtures[0].region = box(Vector3d(0, 0, 0), Vector3d(1e-3, 1e-3, 5));
+  edge.fixtures[0].region = box(c.positions[0], Vector3d(10, 1e-6, 1e-6));
   EXPECT_GT(dm::resolveFixtures(edge, c.positions).index.size(), 2u);
   EXPECT_EQ(degeneracyOf(edge, c), dm::SolveFailure::kDegenerate);
 

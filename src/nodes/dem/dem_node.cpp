@@ -6,6 +6,7 @@
 #include <tf2_eigen/tf2_eigen.h>
 #include <visualization_msgs/MarkerArray.h>
 
+#include <cmath>
 #include <sstream>
 
 #include "conversions/camera_info_conversions.hpp"
@@ -97,6 +98,29 @@ bool loadFree(const demnerf::core::Scenario& scenario) {
   return true;
 }
 
+// A cloud whose particles fill less than 1/1000 of their bounding box has an outlier (a huge but
+// finite coordinate, or a wrong unit): refused before a solver sizes a grid or mesh over the box,
+// which would take all the memory. Volumes as given (unit volumes of x y z clouds pass).
+void checkSpread(const demnerf::core::ParticleCloud& cloud) {
+  Eigen::AlignedBox3d box;
+  double volume = 0.0;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    box.extend(cloud.positions[i]);
+    volume += cloud.volumes[i];
+  }
+  const Eigen::Vector3d size = box.sizes();
+  const double spacing = std::cbrt(volume / static_cast<double>(cloud.size()));
+  // Each side padded by a particle spacing, so that flat or single-particle clouds are not refused.
+  const double box_volume = (size.x() + spacing) * (size.y() + spacing) * (size.z() + spacing);
+  if (!(volume > 0.0) || !std::isfinite(box_volume) || box_volume > 1000.0 * volume) {
+    std::ostringstream text;
+    text.precision(3);
+    text << "the particles (total volume " << volume << " m^3) are spread over a box of " << size.x() << " x "
+         << size.y() << " x " << size.z() << " m: an outlier coordinate or wrong volumes";
+    throw Error(text.str());
+  }
+}
+
 demnerf::mechanics::SimulationOutcome zeroOutcome(const demnerf::core::ParticleCloud& cloud) {
   demnerf::mechanics::SimulationOutcome outcome;
   outcome.field.resize(cloud.size());
@@ -151,6 +175,9 @@ DemNode::~DemNode() {
   shutting_down_ = true;
   cancel_ = true;  // a running solve stops at its next check
   if (service_spinner_) service_spinner_->stop();  // a waiting ~solve caller is answered first
+  solve_service_.shutdown();  // before its queue goes
+  service_queue_.disable();
+  service_queue_.clear();
 }
 
 void DemNode::onParticles(const sensor_msgs::PointCloud2ConstPtr& message) {
@@ -158,6 +185,7 @@ void DemNode::onParticles(const sensor_msgs::PointCloud2ConstPtr& message) {
     demnerf::core::ParticleCloud cloud =
         particlesFromPointCloud2(*message, static_cast<std::uint64_t>(config_.max_particles));
     toParticlesFrame(cloud, message->header);
+    checkSpread(cloud);
     {
       std::lock_guard<std::mutex> lock(mutex_);
       particles_ = std::move(cloud);
@@ -421,12 +449,22 @@ void DemNode::submitSolve(SolveJob job) {
         std::chrono::duration<double>(std::chrono::steady_clock::now() - solve_started_).count();
     if (solve_running_ && !solve_has_reply_ && running_for >= config_.supersede_after) cancel_ = true;
   }
+  const bool from_service = job.reply != nullptr;
   std::optional<SolveJob> replaced = worker_->exchange(std::move(job));
-  if (replaced && replaced->reply) {
-    rejections_.count("solve_superseded", "a waiting ~solve was superseded by a newer request");
-    replaced->reply->set_exception(std::make_exception_ptr(
-        Error("superseded by a newer request (" + replaced->cause + " replaced before it started); call again")));
+  if (!replaced || !replaced->reply) return;
+  if (!from_service) {
+    // A ~solve caller waits for the replaced job: it goes back, and the topic's job runs right
+    // after it starts (a newer topic job replaces a deferred one: latest wins among them).
+    std::optional<SolveJob> topic = worker_->exchange(std::move(*replaced));
+    if (topic) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      deferred_ = std::move(topic);
+    }
+    return;
   }
+  rejections_.count("solve_superseded", "a waiting ~solve was superseded by a newer ~solve");
+  replaced->reply->set_exception(
+      std::make_exception_ptr(Error("superseded by a newer ~solve before it started; call again")));
 }
 
 demnerf::mechanics::SimulationOutcome DemNode::solveWithSession(const SolveJob& job,
@@ -464,6 +502,14 @@ demnerf::mechanics::SimulationOutcome DemNode::solveJob(const SolveJob& job, std
 }
 
 void DemNode::runSolve(const SolveJob& job) {
+  std::optional<SolveJob> deferred;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    deferred = std::move(deferred_);
+    deferred_.reset();
+  }
+  // A topic job that waited behind this ~solve queues now (unless a newer one is already there).
+  if (deferred && !worker_->busyWithWaiting()) worker_->submit(std::move(*deferred));
   {
     std::lock_guard<std::mutex> lock(mutex_);
     cancel_ = shutting_down_.load();
@@ -474,6 +520,7 @@ void DemNode::runSolve(const SolveJob& job) {
     solve_progress_.solver = demnerf::mechanics::solverName(solver_);
     solve_progress_.phase = "start";
   }
+  std::exception_ptr failure;
   try {
     std::string how;
     const demnerf::mechanics::SimulationOutcome outcome = solveJob(job, how);
@@ -485,19 +532,23 @@ void DemNode::runSolve(const SolveJob& job) {
       last_figures_ = figures;
       solve_running_ = false;
     }
-    if (job.reply) job.reply->set_value(outcome);
     publishStatus("solved", job.cause + ": " + figures);
+    if (job.reply) job.reply->set_value(outcome);  // last: nothing after it can throw
     return;
   } catch (const demnerf::mechanics::SolveError& error) {
+    failure = std::current_exception();  // only valid inside the handler
     reportSolveFailure(job, std::string("solve_") + demnerf::mechanics::solveFailureName(error.failure()), error.what());
   } catch (const Error& error) {
+    failure = std::current_exception();
     reportSolveFailure(job, "solve_input", error.what());
   } catch (const std::exception& error) {  // torch's c10::Error (out of memory), bad_alloc, ...
+    failure = std::current_exception();
     reportSolveFailure(job, "solve_internal", std::string("the solver failed: ") + error.what());
   } catch (...) {
+    failure = std::current_exception();
     reportSolveFailure(job, "solve_internal", "the solver failed with an unknown exception");
   }
-  if (job.reply) job.reply->set_exception(std::current_exception());
+  if (job.reply) job.reply->set_exception(failure);
 }
 
 void DemNode::reportSolveFailure(const SolveJob& job, const std::string& cause, const std::string& message) {
@@ -569,11 +620,11 @@ bool DemNode::solve(dem_nerf::Solve::Request& request, dem_nerf::Solve::Response
     response.ok = false;
     response.message = error.what();
     // Refusals before the job ran are counted here; the worker counted failed solves already.
-    if (!submitted) rejections_.count("solve_request", std::string("~solve: ") + error.what());
+    if (!submitted) reportError("solve_request", std::string("~solve: ") + error.what());
   } catch (...) {
     response.ok = false;
     response.message = "~solve failed with an unknown exception";
-    rejections_.count("solve_request", response.message);
+    reportError("solve_request", response.message);
   }
   return true;
 }

@@ -133,6 +133,7 @@ class DemNode {
   bool solve_has_reply_ = false;
   std::chrono::steady_clock::time_point solve_started_;
   demnerf::mechanics::SolveProgress solve_progress_;
+  std::optional<SolveJob> deferred_;  ///< a topic's job that waits for a ~solve job to start
 
   DeformedView view_;  ///< only the render worker's thread touches it
   // The workers come last (their threads use the members above); the solve worker is destroyed

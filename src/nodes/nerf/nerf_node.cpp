@@ -189,6 +189,9 @@ NerfNode::NerfNode(ros::NodeHandle node, ros::NodeHandle private_node, const Ner
 
 NerfNode::~NerfNode() {
   if (service_spinner_) service_spinner_->stop();  // waits for a service call in progress
+  for (ros::ServiceServer& service : services_) service.shutdown();  // before their queue goes
+  service_queue_.disable();
+  service_queue_.clear();
   std::unique_ptr<demnerf::nerf::BackgroundTrainer> background;
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -199,6 +202,19 @@ NerfNode::~NerfNode() {
 
 void NerfNode::onImage(const std::string& camera, const sensor_msgs::ImageConstPtr& image,
                        const sensor_msgs::CameraInfoConstPtr& info) {
+  // Images the subscriber queue dropped in a burst, or whose camera_info never matched, leave a
+  // gap in the publisher's sequence numbers: counted, so no drop goes unseen.
+  std::uint32_t missed = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    std::uint32_t& last = last_sequence_[camera];
+    if (last != 0 && image->header.seq > last + 1) missed = image->header.seq - last - 1;
+    last = image->header.seq;
+  }
+  if (missed > 0)
+    rejections_.count("image_not_received", camera + ": " + std::to_string(missed) +
+                                                " image(s) dropped before the node saw them (subscriber queue full, "
+                                                "or no camera_info with the same stamp)");
   try {
     intake_.add(*image, *info);
   } catch (const std::exception& error) {  // core::Error from the checks; anything else too
@@ -449,8 +465,13 @@ bool NerfNode::render(dem_nerf::RenderView::Request& request, dem_nerf::RenderVi
       throw demnerf::core::Error("render of " + std::to_string(request.camera_info.width) + "x" +
                                  std::to_string(request.camera_info.height) + " refused: more than ~max_render_pixels = " +
                                  std::to_string(config_.max_render_pixels) + " pixels");
-    Eigen::Isometry3d pose;
-    tf2::fromMsg(request.pose, pose);
+    const auto& q = request.pose.orientation;
+    const Eigen::Quaterniond rotation(q.w, q.x, q.y, q.z);
+    if (!rotation.coeffs().allFinite() || rotation.norm() < 1e-6)
+      throw demnerf::core::Error("pose orientation is not a rotation (a zero, NaN or Inf quaternion)");
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.linear() = rotation.normalized().toRotationMatrix();  // tf2::fromMsg would not normalise
+    pose.translation() = Eigen::Vector3d(request.pose.position.x, request.pose.position.y, request.pose.position.z);
     if (!pose.matrix().allFinite()) throw demnerf::core::Error("pose holds NaN or Inf");
     std_msgs::Header header = request.camera_info.header;
     response.image = toImageMessage(demnerf::nerf::renderImage(*model, camera, pose), header);

@@ -15,6 +15,7 @@
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 
+#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -87,6 +88,7 @@ class NerfNode {
   std::string stage_ = "waiting_for_frames";
   std::string last_error_;
   ros::WallTime last_preview_;
+  std::map<std::string, std::uint32_t> last_sequence_;  ///< per camera: the last image's header.seq
 
   // The services (a render takes seconds) run on their own queue and thread, so that the status
   // timer and the image intake on the global queue never wait behind them. Last: stopped first.
