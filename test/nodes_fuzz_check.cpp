@@ -511,6 +511,7 @@ TEST_F(NodesFuzz, IssueReproducersAreRefusedAndBothNodesLive) {
   const dem_nerf::TrainingStatus dem_status = latestStatus("dem_node");
   EXPECT_GE(rejectionsOf(dem_status, "particles"), 3u);
   EXPECT_GE(rejectionsOf(dem_status, "solve_degenerate"), 3u);
+  EXPECT_DOUBLE_EQ(dem_status.solve.time_limit, 10.0);  // ~solve_time_limit, as launched
   const dem_nerf::TrainingStatus nerf_status = latestStatus("nerf_node");
   EXPECT_GE(rejectionsOf(nerf_status, "image"), 2u);
   EXPECT_GE(rejectionsOf(nerf_status, "render"), 2u);
