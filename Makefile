@@ -5,6 +5,18 @@ JOBS ?= $(shell nproc)
 PYTHON ?= /usr/bin/python3
 DATA ?=
 CMAKE_ARGS ?=
+# SANITIZE=address: an ASan + UBSan build of the ROS layer in build-asan, and `make test` runs the
+# node tests only (test_ros_conversions and the dem_node_bad_input, nodes_advertise and
+# nodes_fuzz rostests).
+SANITIZE ?=
+ifeq ($(SANITIZE),address)
+BUILD_DIR := build-asan
+override CMAKE_ARGS += -DDEMNERF_SANITIZE=address
+export DEMNERF_TEST_SET := nodes
+# roscpp keeps singletons until exit; leaks there are not ours. UBSan stops the process.
+export ASAN_OPTIONS := detect_leaks=0:abort_on_error=1
+export UBSAN_OPTIONS := print_stacktrace=1:halt_on_error=1
+endif
 
 .PHONY: setup build test demo bench clean
 

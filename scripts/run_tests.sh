@@ -24,8 +24,14 @@ set -u
 
 status=0
 skipped_suites=0
+# DEMNERF_TEST_SET=nodes (make test SANITIZE=address): the node tests only.
+TEST_SET=${DEMNERF_TEST_SET:-all}
 echo "== gtests"
-(cd "$BUILD_DIR" && ctest --output-on-failure --timeout 600) || status=1
+if [ "$TEST_SET" = nodes ]; then
+  (cd "$BUILD_DIR" && ctest --output-on-failure --timeout 600 -R '^test_ros_conversions$') || status=1
+else
+  (cd "$BUILD_DIR" && ctest --output-on-failure --timeout 600) || status=1
+fi
 
 echo "== rostests"
 # A small synthetic scene for the tests that train (made by our own renderer, so no ../shared).
@@ -34,7 +40,9 @@ if [ ! -f "$TEST_DATA/cuboid/transforms_train.json" ]; then
   "$BUILD_DIR/bin/demnerf" synth --scene cuboid --views 24 --test-views 4 --size 64 --out "$TEST_DATA/cuboid" > /dev/null \
     || { echo "could not generate the test scene"; status=1; }
 fi
-for launch_file in test/*.test; do
+launch_files=(test/*.test)
+[ "$TEST_SET" = nodes ] && launch_files=(test/dem_node_bad_input.test test/nodes_advertise.test test/nodes_fuzz.test)
+for launch_file in "${launch_files[@]}"; do
   needs_shared=$(grep -l 'shared/data' "$launch_file" || true)
   if [ -n "$needs_shared" ] && [ ! -d "$ROOT/../shared/data" ]; then
     echo "SKIPPED $launch_file: it replays ../shared/data, which is absent beside this clone"

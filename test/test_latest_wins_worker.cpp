@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <optional>
 #include <vector>
 
 #include "workers/latest_wins_worker.hpp"
@@ -67,4 +68,23 @@ TEST(LatestWinsWorker, AStreamFasterThanTheLeastIntervalIsThinnedToIt) {
   EXPECT_EQ(starts.back().first, 49) << "the newest job is the one that runs last";
   for (std::size_t i = 1; i < starts.size(); ++i)
     EXPECT_GE(starts[i].second - starts[i - 1].second, std::chrono::milliseconds(99));
+}
+
+// dem_node answers a ~solve caller whose waiting job was replaced: exchange hands the job back.
+TEST(LatestWinsWorker, ExchangeHandsBackTheReplacedJob) {
+  std::atomic<bool> started{false}, release{false};
+  dem_nerf::LatestWinsWorker<int> worker([&](const int& job) {
+    started = true;
+    while (job == 0 && !release) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  });
+  worker.submit(0);
+  while (!started) std::this_thread::yield();
+  EXPECT_FALSE(worker.exchange(1).has_value());
+  EXPECT_TRUE(worker.busyWithWaiting());
+  const std::optional<int> replaced = worker.exchange(2);
+  ASSERT_TRUE(replaced.has_value());
+  EXPECT_EQ(*replaced, 1);
+  release = true;
+  worker.waitIdle();
+  EXPECT_FALSE(worker.busyWithWaiting());
 }

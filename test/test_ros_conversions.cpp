@@ -7,6 +7,7 @@
 #include <sensor_msgs/Image.h>
 #include <tf2_msgs/TFMessage.h>
 
+#include <cstring>
 #include <filesystem>
 
 #include "conversions/camera_info_conversions.hpp"
@@ -58,6 +59,76 @@ TEST(Conversions, ParticleCloudRoundTripAndBadClouds) {
   cloud.positions[0].x() = std::nan("");
   auto message = dem_nerf::toPointCloud2(cloud, {});
   EXPECT_THROW(dem_nerf::particlesFromPointCloud2(message), Error);
+}
+
+// Issue 14: a PointCloud2 header that lies about its layout is refused before a byte is read.
+TEST(Conversions, CloudLayoutIsCheckedBeforeReading) {
+  demnerf::core::ParticleCloud cloud;
+  cloud.resize(525);
+  std::fill(cloud.volumes.begin(), cloud.volumes.end(), 1e-6);
+  const sensor_msgs::PointCloud2 good = dem_nerf::toPointCloud2(cloud, {});
+  ASSERT_EQ(dem_nerf::particlesFromPointCloud2(good).size(), 525u);
+  const auto refused = [](const sensor_msgs::PointCloud2& message, const std::string& words) {
+    try {
+      dem_nerf::particlesFromPointCloud2(message, 1000);
+      ADD_FAILURE() << "accepted; expected: " << words;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    }
+  };
+  auto m = good;  // the issue's crash: width 525, point_step 0, empty data
+  m.point_step = 0;
+  m.row_step = 0;
+  m.data.clear();
+  refused(m, "point_step 0");
+  m = good;
+  m.fields[1].offset = 4000000000u;  // y beyond point_step
+  refused(m, "does not fit in point_step");
+  m = good;
+  m.fields[0].datatype = sensor_msgs::PointField::UINT8;  // UINT8 declared on float data
+  refused(m, "FLOAT32 (7) or FLOAT64 (8)");
+  m = good;
+  m.fields[2].datatype = 42;
+  refused(m, "unknown datatype 42");
+  m = good;
+  m.row_step += 4;
+  refused(m, "row_step");
+  m = good;
+  m.data.resize(m.data.size() - 1);
+  refused(m, "data holds");
+  m = good;
+  m.height = 65537;  // width x height x point_step overflows 32 bits
+  refused(m, "points, more than the limit");
+  m = good;
+  m.width = 1 << 20;
+  m.height = 1 << 12;  // 2^32 points: rows in 64 bits, not 0 after a wrap
+  m.row_step = m.width * m.point_step;
+  refused(m, "more than the limit");
+  m = good;
+  m.is_bigendian = true;
+  refused(m, "big-endian");
+
+  // FLOAT64 fields are read as declared.
+  sensor_msgs::PointCloud2 wide;
+  wide.width = 2;
+  wide.height = 1;
+  wide.point_step = 24;
+  wide.row_step = 48;
+  for (const char* name : {"x", "y", "z"}) {
+    sensor_msgs::PointField f;
+    f.name = name;
+    f.offset = static_cast<std::uint32_t>(8 * wide.fields.size());
+    f.datatype = sensor_msgs::PointField::FLOAT64;
+    f.count = 1;
+    wide.fields.push_back(f);
+  }
+  const double values[6] = {0.5, 1.5, 2.5, -1, -2, -3};
+  wide.data.resize(sizeof(values));
+  std::memcpy(wide.data.data(), values, sizeof(values));
+  const auto back = dem_nerf::particlesFromPointCloud2(wide);
+  ASSERT_EQ(back.size(), 2u);
+  EXPECT_EQ(back.positions[1], Eigen::Vector3d(-1, -2, -3));
+  EXPECT_EQ(back.positions[0], Eigen::Vector3d(0.5, 1.5, 2.5));
 }
 
 TEST(Conversions, RegionsRoundTripAndRejectNan) {

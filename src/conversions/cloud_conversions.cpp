@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "conversions/cloud_layout.hpp"
 #include "demnerf/core/error.hpp"
 
 namespace dem_nerf {
@@ -18,11 +19,6 @@ float packRgb(std::uint8_t r, std::uint8_t g, std::uint8_t b) {
   float value;
   std::memcpy(&value, &packed, sizeof(value));
   return value;
-}
-
-bool hasField(const sensor_msgs::PointCloud2& message, const std::string& name) {
-  return std::any_of(message.fields.begin(), message.fields.end(),
-                     [&](const sensor_msgs::PointField& field) { return field.name == name; });
 }
 
 // A blue-to-red ramp, so that rviz's RGB8 colour transformer shows displacement magnitude.
@@ -72,24 +68,21 @@ sensor_msgs::PointCloud2 toPointCloud2(const demnerf::core::ParticleCloud& cloud
   return message;
 }
 
-demnerf::core::ParticleCloud particlesFromPointCloud2(const sensor_msgs::PointCloud2& message) {
-  const std::size_t rows = static_cast<std::size_t>(message.width) * message.height;
-  if (rows == 0) throw Error("particle cloud is empty");
-  for (const char* name : {"x", "y", "z"}) {
-    if (!hasField(message, name)) throw Error(std::string("particle cloud has no '") + name + "' field");
-  }
-  if (message.data.size() < rows * message.point_step) throw Error("particle cloud data is shorter than width*height*point_step");
+demnerf::core::ParticleCloud particlesFromPointCloud2(const sensor_msgs::PointCloud2& message,
+                                                      std::uint64_t max_points) {
+  const CloudLayout layout(message, "particle cloud", max_points);
+  const std::vector<double> x = layout.read("x"), y = layout.read("y"), z = layout.read("z");
   demnerf::core::ParticleCloud cloud;
-  cloud.resize(rows);
-  sensor_msgs::PointCloud2ConstIterator<float> xyz(message, "x");
-  for (std::size_t i = 0; i < rows; ++i, ++xyz) cloud.positions[i] = {xyz[0], xyz[1], xyz[2]};
-  const bool full = hasField(message, "volume") && hasField(message, "nx") && hasField(message, "area");
+  cloud.resize(layout.points());
+  for (std::size_t i = 0; i < cloud.size(); ++i) cloud.positions[i] = {x[i], y[i], z[i]};
+  const bool full = layout.has("volume") && layout.has("nx") && layout.has("area");
   if (full) {
-    sensor_msgs::PointCloud2ConstIterator<float> volume(message, "volume"), normal(message, "nx"), area(message, "area");
-    for (std::size_t i = 0; i < rows; ++i, ++volume, ++normal, ++area) {
-      cloud.volumes[i] = *volume;
-      cloud.normals[i] = {normal[0], normal[1], normal[2]};
-      cloud.areas[i] = *area;
+    const std::vector<double> volume = layout.read("volume"), nx = layout.read("nx"), ny = layout.read("ny"),
+                              nz = layout.read("nz"), area = layout.read("area");
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      cloud.volumes[i] = volume[i];
+      cloud.normals[i] = {nx[i], ny[i], nz[i]};
+      cloud.areas[i] = area[i];
     }
   } else {
     std::fill(cloud.volumes.begin(), cloud.volumes.end(), 1.0);
@@ -116,20 +109,16 @@ sensor_msgs::PointCloud2 toPointCloud2(const demnerf::core::ResultField& result,
 }
 
 demnerf::core::ResultField resultFromPointCloud2(const sensor_msgs::PointCloud2& message, bool displaced_positions) {
-  const std::size_t rows = static_cast<std::size_t>(message.width) * message.height;
-  if (rows == 0) throw Error("result cloud is empty");
-  for (const char* name : {"x", "y", "z", "ux", "uy", "uz", "von_mises"}) {
-    if (!hasField(message, name)) throw Error(std::string("result cloud has no '") + name + "' field");
-  }
-  if (message.data.size() < rows * message.point_step) throw Error("result cloud data is shorter than width*height*point_step");
+  const CloudLayout layout(message, "result cloud");
+  const std::vector<double> x = layout.read("x"), y = layout.read("y"), z = layout.read("z"), ux = layout.read("ux"),
+                            uy = layout.read("uy"), uz = layout.read("uz"), vm = layout.read("von_mises");
   demnerf::core::ResultField result;
-  result.resize(rows);
-  sensor_msgs::PointCloud2ConstIterator<float> xyz(message, "x"), u(message, "ux"), vm(message, "von_mises");
-  for (std::size_t i = 0; i < rows; ++i, ++xyz, ++u, ++vm) {
-    result.displacements[i] = {u[0], u[1], u[2]};
-    const Eigen::Vector3d p(xyz[0], xyz[1], xyz[2]);
+  result.resize(layout.points());
+  for (std::size_t i = 0; i < result.size(); ++i) {
+    result.displacements[i] = {ux[i], uy[i], uz[i]};
+    const Eigen::Vector3d p(x[i], y[i], z[i]);
     result.positions[i] = displaced_positions ? Eigen::Vector3d(p - result.displacements[i]) : p;
-    result.von_mises[i] = *vm;
+    result.von_mises[i] = vm[i];
   }
   result.validate();
   return result;

@@ -34,11 +34,15 @@ class LatestWinsWorker {
   LatestWinsWorker& operator=(const LatestWinsWorker&) = delete;
 
   /// Queues the job; returns true when it replaced one that had not started yet.
-  bool submit(Job job) {
-    bool replaced = false;
+  bool submit(Job job) { return exchange(std::move(job)).has_value(); }
+
+  /// Queues the job and hands back the one it replaced (not started yet), so that its owner can
+  /// be told (a service caller waiting for it).
+  std::optional<Job> exchange(Job job) {
+    std::optional<Job> replaced;
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      replaced = waiting_.has_value();
+      replaced = std::move(waiting_);
       waiting_ = std::move(job);
     }
     wake_.notify_all();
@@ -49,6 +53,12 @@ class LatestWinsWorker {
   bool busy() const {
     std::lock_guard<std::mutex> lock(mutex_);
     return running_ || waiting_.has_value();
+  }
+
+  /// True while a job waits to start.
+  bool busyWithWaiting() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return waiting_.has_value();
   }
 
   /// Blocks until no job runs or waits (for tests and shutdown).

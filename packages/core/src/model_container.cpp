@@ -69,24 +69,34 @@ ModelContainer readModelContainer(const std::string& path, const ModelMagic& mag
                                   const std::string& what) {
   std::ifstream file(path, std::ios::binary);
   if (!file) throw Error("cannot open " + what + " file '" + path + "'");
-  std::stringstream buffer;
-  buffer << file.rdbuf();
-  const std::string data = buffer.str();
   const std::string where = what + " file '" + path + "'";
-  if (data.size() < magic.size() || std::memcmp(data.data(), magic.data(), magic.size()) != 0)
-    throw Error(where + " is not a dem_nerf " + what + " (wrong magic bytes)");
+  // The fixed header first: a file that is not ours (or from another build, or truncated) is
+  // refused before a byte of its body is read, however large it is.
   const std::size_t fixed = magic.size() + sizeof(std::uint32_t) + sizeof(std::uint64_t);
-  if (data.size() < fixed + sizeof(std::uint64_t))
-    throw Error(where + " is truncated: " + std::to_string(data.size()) + " bytes, no header");
+  std::string head(fixed, '\0');
+  file.read(head.data(), static_cast<std::streamsize>(fixed));
+  const std::size_t got = static_cast<std::size_t>(file.gcount());
+  if (got < magic.size() || std::memcmp(head.data(), magic.data(), magic.size()) != 0)
+    throw Error(where + " is not a dem_nerf " + what + " (wrong magic bytes)");
+  if (got < fixed) throw Error(where + " is truncated: " + std::to_string(got) + " bytes, no header");
   ModelContainer container;
-  container.version = readAt<std::uint32_t>(data, magic.size());
+  container.version = readAt<std::uint32_t>(head, magic.size());
   if (container.version != version)
     throw Error(where + " has format version " + std::to_string(container.version) + "; this build reads version " +
                 std::to_string(version));
-  const auto header_bytes = readAt<std::uint64_t>(data, magic.size() + sizeof(std::uint32_t));
-  if (header_bytes > data.size() - fixed - sizeof(std::uint64_t))
+  file.clear();
+  file.seekg(0, std::ios::end);
+  const std::streamoff end = file.tellg();
+  if (end < 0) throw Error("cannot size " + where);
+  const std::uint64_t size = static_cast<std::uint64_t>(end);
+  const auto header_bytes = readAt<std::uint64_t>(head, magic.size() + sizeof(std::uint32_t));
+  if (size < fixed + sizeof(std::uint64_t) || header_bytes > size - fixed - sizeof(std::uint64_t))
     throw Error(where + " is truncated: header says " + std::to_string(header_bytes) + " bytes, file has " +
-                std::to_string(data.size()));
+                std::to_string(size));
+  std::string data(static_cast<std::size_t>(size), '\0');
+  file.seekg(0, std::ios::beg);
+  file.read(data.data(), static_cast<std::streamsize>(size));
+  if (static_cast<std::uint64_t>(file.gcount()) != size) throw Error("reading " + where + " failed part-way");
   const std::size_t body_end = data.size() - sizeof(std::uint64_t);
   if (fnv1a(data.data(), body_end) != readAt<std::uint64_t>(data, body_end))
     throw Error(where + " is corrupt or truncated: checksum mismatch (the file was damaged after it was written)");

@@ -1,11 +1,13 @@
 #include "demnerf/mechanics/boundary_conditions.hpp"
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
 #include "demnerf/core/error.hpp"
 #include "demnerf/mechanics/material.hpp"
+#include "demnerf/mechanics/solve_control.hpp"
 
 namespace demnerf::mechanics {
 
@@ -106,7 +108,57 @@ std::vector<Eigen::Vector3d> particleTractions(const core::Scenario& scenario, c
   return traction;
 }
 
+void checkSupports(const Dirichlet& dirichlet, const core::ParticleCloud& cloud, const std::string& what) {
+  if (dirichlet.index.empty())
+    throw SolveError(SolveFailure::kDegenerate, what + " fixes no particle, so the body can move freely; add a fixture");
+  std::size_t fully_fixed = 0;
+  for (const Eigen::Vector3i& m : dirichlet.mask) fully_fixed += m.minCoeff() != 0;
+  if (fully_fixed == cloud.size())
+    throw SolveError(SolveFailure::kDegenerate,
+                     what + ": the fixtures hold every one of the " + std::to_string(cloud.size()) +
+                         " particles, so nothing is left to solve; shrink the fixture regions");
+  // The six rigid motions (three translations, three rotations about the centroid, scaled by the
+  // cloud's size so that all six are alike) evaluated on the fixed components: when some motion
+  // leaves every fixed component at zero, the stiffness is singular (one pinned particle, pins on
+  // one line, only rollers). G = sum of row^T row is then (numerically) rank deficient.
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  Eigen::AlignedBox3d box;
+  for (const Eigen::Vector3d& p : cloud.positions) {
+    centroid += p;
+    box.extend(p);
+  }
+  centroid /= static_cast<double>(cloud.size());
+  const double length = std::max(box.diagonal().norm(), 1e-300);
+  Eigen::Matrix<double, 6, 6> gram = Eigen::Matrix<double, 6, 6>::Zero();
+  std::size_t rows = 0;
+  for (std::size_t k = 0; k < dirichlet.index.size(); ++k) {
+    const Eigen::Vector3d r = (cloud.positions[dirichlet.index[k]] - centroid) / length;
+    for (int c = 0; c < 3; ++c) {
+      if (dirichlet.mask[k](c) == 0) continue;
+      Eigen::Matrix<double, 6, 1> row = Eigen::Matrix<double, 6, 1>::Zero();
+      row(c) = 1.0;
+      for (int axis = 0; axis < 3; ++axis) row(3 + axis) = Eigen::Vector3d::Unit(axis).cross(r)(c);
+      gram += row * row.transpose();
+      ++rows;
+    }
+  }
+  gram /= static_cast<double>(rows);
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(gram);
+  if (eig.eigenvalues()(0) < 1e-9) {
+    const Eigen::Matrix<double, 6, 1> free = eig.eigenvectors().col(0);
+    std::ostringstream msg;
+    msg << what << ": the " << dirichlet.index.size() << " fixed particle(s) leave a rigid-body "
+        << (free.head<3>().norm() > free.tail<3>().norm() ? "translation" : "rotation")
+        << " free (too few fixed particles, or all on one line), so the equilibrium is not unique;"
+        << " fix a larger patch";
+    throw SolveError(SolveFailure::kDegenerate, msg.str());
+  }
+}
+
 void validateProblem(const core::Scenario& scenario, const core::ParticleCloud& cloud) {
+  if (scenario.fixtures.empty())
+    throw SolveError(SolveFailure::kDegenerate, "scenario '" + scenario.name +
+                                                    "' has no fixture, so the body can move freely; add a fixture");
   scenario.validate("scenario '" + scenario.name + "'");
   makeMaterial(scenario.material);
   cloud.validate();
@@ -114,7 +166,7 @@ void validateProblem(const core::Scenario& scenario, const core::ParticleCloud& 
   for (std::size_t i = 0; i < cloud.size(); ++i)
     if (!(cloud.volumes[i] >= 0.0))
       throw core::Error("particle " + std::to_string(i) + " has a negative volume " + std::to_string(cloud.volumes[i]));
-  resolveFixtures(scenario, cloud.positions);
+  checkSupports(resolveFixtures(scenario, cloud.positions), cloud, "scenario '" + scenario.name + "'");
   particleTractions(scenario, cloud);
 }
 

@@ -3,6 +3,7 @@
 #include "demnerf/core/error.hpp"
 #include "demnerf/mechanics/boundary_conditions.hpp"
 #include "demnerf/mechanics/box_particles.hpp"
+#include "demnerf/mechanics/solve_control.hpp"
 
 #include "box_region.hpp"
 
@@ -123,6 +124,65 @@ TEST(BoundaryConditions, FixturesCombineComponentMasks) {
     EXPECT_EQ(d.mask[k](2), 0);
     if (d.mask[k](1)) EXPECT_DOUBLE_EQ(d.value[k](1), 0.25);
   }
+}
+
+// Issue 14: set-ups without a unique equilibrium are refused (kDegenerate) before any solver
+// factorises a singular or empty system; a well-posed cantilever passes.
+dm::SolveFailure degeneracyOf(const core::Scenario& s, const core::ParticleCloud& c) {
+  try {
+    dm::validateProblem(s, c);
+  } catch (const dm::SolveError& e) {
+    EXPECT_NE(std::string(e.what()).find("fix"), std::string::npos) << e.what();
+    return e.failure();
+  }
+  return dm::SolveFailure::kNotConverged;  // "not refused" for the checks below
+}
+
+TEST(BoundaryConditions, DegenerateSupportsAreRefusedBeforeSolving) {
+  const core::ParticleCloud c = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(2, 1, 1), Eigen::Vector3i(8, 4, 4));
+  core::Scenario s = cantilever();
+  s.material.youngs_modulus = 1e5;
+  s.material.poisson_ratio = 0.3;
+  EXPECT_NO_THROW(dm::validateProblem(s, c));
+
+  core::Scenario all = s;  // a fixture box that holds every particle
+  all.fixtures[0].region = box(Vector3d(1, 0.5, 0.5), Vector3d(10, 10, 10));
+  EXPECT_EQ(degeneracyOf(all, c), dm::SolveFailure::kDegenerate);
+
+  core::Scenario none = s;
+  none.fixtures.clear();
+  EXPECT_EQ(degeneracyOf(none, c), dm::SolveFailure::kDegenerate);
+
+  // One pinned particle plus the tip load: rotations about it are free.
+  core::Scenario pinned = s;
+  pinned.fixtures[0].region = box(c.positions[0], Vector3d(1e-6, 1e-6, 1e-6));
+  EXPECT_EQ(dm::resolveFixtures(pinned, c.positions).index.size(), 1u);
+  EXPECT_EQ(degeneracyOf(pinned, c), dm::SolveFailure::kDegenerate);
+
+  // Pins along one line (through the first particle, along x): the rotation about it is free.
+  core::Scenario edge = s;
+  edge.fixtures[0].region = box(c.positions[0], Vector3d(10, 1e-6, 1e-6));
+  EXPECT_GT(dm::resolveFixtures(edge, c.positions).index.size(), 2u);
+  EXPECT_EQ(degeneracyOf(edge, c), dm::SolveFailure::kDegenerate);
+
+  // Rollers on the x = 0 face only (ux fixed): the body slides in y and z.
+  core::Scenario roller = s;
+  roller.fixtures[0].constrained = Eigen::Vector3i(1, 0, 0);
+  EXPECT_EQ(degeneracyOf(roller, c), dm::SolveFailure::kDegenerate);
+  // Three symmetry planes (each a roller) hold every rigid motion: accepted.
+  core::Scenario symmetric = s;
+  symmetric.fixtures.clear();
+  for (int axis = 0; axis < 3; ++axis) {
+    core::Fixture f;
+    f.name = "sym" + std::to_string(axis);
+    Vector3d centre(1, 0.5, 0.5), size(10, 10, 10);
+    centre(axis) = 0;
+    size(axis) = 1e-3;
+    f.region = box(centre, size);
+    f.constrained = Eigen::Vector3i::Unit(axis);
+    symmetric.fixtures.push_back(f);
+  }
+  EXPECT_NO_THROW(dm::validateProblem(symmetric, c));
 }
 
 }  // namespace

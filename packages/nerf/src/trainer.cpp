@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <thread>
 
 #include "demnerf/core/error.hpp"
@@ -114,6 +115,45 @@ void Trainer::addFrame(const core::Frame& frame) {
   frames_.push_back(stored);
   const std::int64_t previous = pixel_offsets_.empty() ? 0 : pixel_offsets_.back();
   pixel_offsets_.push_back(previous + static_cast<std::int64_t>(stored->width) * stored->height);
+  evictRedundantFrames();
+}
+
+void Trainer::setMaxFrames(std::size_t max_frames) {
+  std::lock_guard<std::mutex> lock(frames_mutex_);
+  max_frames_ = max_frames;
+  evictRedundantFrames();
+}
+
+void Trainer::evictRedundantFrames() {
+  if (max_frames_ == 0 || frames_.size() <= max_frames_) return;
+  const Box box = model_->bounds();
+  double diagonal = 0.0;
+  for (int a = 0; a < 3; ++a) diagonal += double(box.max[a] - box.min[a]) * double(box.max[a] - box.min[a]);
+  diagonal = std::max(std::sqrt(diagonal), 1e-9);
+  const auto distance = [diagonal](const StoredFrame& a, const StoredFrame& b) {
+    double t = 0.0, trace = 0.0;
+    for (int i = 0; i < 3; ++i) t += double(a.origin[i] - b.origin[i]) * double(a.origin[i] - b.origin[i]);
+    // trace(Ra^T Rb) = 1 + 2 cos(angle) for the relative rotation.
+    for (int k = 0; k < 9; ++k) trace += double(a.rotation[k]) * double(b.rotation[k]);
+    const double angle = std::acos(std::clamp((trace - 1.0) / 2.0, -1.0, 1.0));
+    return std::sqrt(t) / diagonal + angle / M_PI;
+  };
+  while (frames_.size() > max_frames_) {
+    std::size_t evict = 0;
+    double closest = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < frames_.size(); ++i)
+      for (std::size_t j = i + 1; j < frames_.size(); ++j) {
+        const double d = distance(*frames_[i], *frames_[j]);
+        if (d < closest) {
+          closest = d;
+          evict = i;  // the older of the closest pair
+        }
+      }
+    frames_.erase(frames_.begin() + static_cast<std::ptrdiff_t>(evict));
+  }
+  pixel_offsets_.clear();
+  std::int64_t total = 0;
+  for (const auto& frame : frames_) pixel_offsets_.push_back(total += std::int64_t(frame->width) * frame->height);
 }
 
 void Trainer::addFrames(const std::vector<core::Frame>& frames) {

@@ -137,6 +137,26 @@ TEST_F(TinyScene, SameSeedAndThreadsGiveTheSameWeights) {
   EXPECT_EQ(run(), run());
 }
 
+// Issue 14: a live rig adds frames forever; the store keeps max_frames, evicting the most
+// redundant viewpoint (the older of the closest pair), so distinct views survive.
+TEST_F(TinyScene, FrameStoreHonoursMaxFramesByRedundancy) {
+  Trainer trainer(tinyConfig(), tinyBox(), 1.0);
+  trainer.setMaxFrames(6);
+  std::vector<core::Frame> views(train_->begin(), train_->begin() + 6);
+  trainer.addFrames(views);
+  EXPECT_EQ(trainer.frameCount(), 6u);
+  for (int k = 0; k < 20; ++k) {  // the same view again and again, as a camera at rest sends it
+    core::Frame again = views[2];
+    again.world_from_camera.translation() += Eigen::Vector3d(1e-4 * k, 0, 0);
+    trainer.addFrame(again);
+    ASSERT_EQ(trainer.frameCount(), 6u);
+  }
+  trainer.step(2);  // sampling still sees consistent pixel offsets after evictions
+  trainer.setMaxFrames(3);
+  EXPECT_EQ(trainer.frameCount(), 3u);
+  trainer.step(1);
+}
+
 TEST_F(TinyScene, StopsOnRequestAndTakesFramesWhileTraining) {
   Trainer trainer(tinyConfig(), tinyBox(), 1.0);
   trainer.addFrames(std::vector<core::Frame>(train_->begin(), train_->begin() + 8));

@@ -6,6 +6,7 @@
 #include <tf2_eigen/tf2_eigen.h>
 #include <visualization_msgs/MarkerArray.h>
 
+#include <cmath>
 #include <sstream>
 
 #include "conversions/camera_info_conversions.hpp"
@@ -13,6 +14,7 @@
 #include "conversions/region_conversions.hpp"
 #include "demnerf/core/error.hpp"
 #include "demnerf/geometry/regions.hpp"
+#include "demnerf/mechanics/boundary_conditions.hpp"
 
 namespace dem_nerf {
 namespace {
@@ -85,6 +87,47 @@ visualization_msgs::Marker forceArrow(const demnerf::core::Load& load, const std
   return marker;
 }
 
+// True when nothing drives a deformation: no force, torque, body force or prescribed displacement.
+// The answer is then zero displacement (a zero wrench is a valid request, not a divergence).
+bool loadFree(const demnerf::core::Scenario& scenario) {
+  if (!scenario.body_force.isZero()) return false;
+  for (const auto& load : scenario.loads)
+    if (!load.force.isZero() || !load.torque.isZero()) return false;
+  for (const auto& fixture : scenario.fixtures)
+    if (!fixture.displacement.isZero()) return false;
+  return true;
+}
+
+// A cloud whose particles fill less than 1/1000 of their bounding box has an outlier (a huge but
+// finite coordinate, or a wrong unit): refused before a solver sizes a grid or mesh over the box,
+// which would take all the memory. Volumes as given (unit volumes of x y z clouds pass).
+void checkSpread(const demnerf::core::ParticleCloud& cloud) {
+  Eigen::AlignedBox3d box;
+  double volume = 0.0;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    box.extend(cloud.positions[i]);
+    volume += cloud.volumes[i];
+  }
+  const Eigen::Vector3d size = box.sizes();
+  const double spacing = std::cbrt(volume / static_cast<double>(cloud.size()));
+  // Each side padded by a particle spacing, so that flat or single-particle clouds are not refused.
+  const double box_volume = (size.x() + spacing) * (size.y() + spacing) * (size.z() + spacing);
+  if (!(volume > 0.0) || !std::isfinite(box_volume) || box_volume > 1000.0 * volume) {
+    std::ostringstream text;
+    text.precision(3);
+    text << "the particles (total volume " << volume << " m^3) are spread over a box of " << size.x() << " x "
+         << size.y() << " x " << size.z() << " m: an outlier coordinate or wrong volumes";
+    throw Error(text.str());
+  }
+}
+
+demnerf::mechanics::SimulationOutcome zeroOutcome(const demnerf::core::ParticleCloud& cloud) {
+  demnerf::mechanics::SimulationOutcome outcome;
+  outcome.field.resize(cloud.size());
+  outcome.field.positions = cloud.positions;
+  return outcome;
+}
+
 }  // namespace
 
 DemNode::DemNode(ros::NodeHandle node, ros::NodeHandle private_node, const DemNodeConfig& config)
@@ -103,16 +146,20 @@ DemNode::DemNode(ros::NodeHandle node, ros::NodeHandle private_node, const DemNo
   worker_ = std::make_unique<LatestWinsWorker<SolveJob>>([this](const SolveJob& job) { runSolve(job); }, min_interval);
 
   if (config_.scenario.empty()) {
-    reportError("no ~scenario set: give a scenario YAML with the material (see config/scenarios/)");
+    reportError("scenario", "no ~scenario set: give a scenario YAML with the material (see config/scenarios/)");
   } else {
     try {
       scenario_ = demnerf::core::loadScenario(config_.scenario);
       scenario_loaded_ = true;
-    } catch (const Error& error) {
-      reportError(error.what());
+    } catch (const std::exception& error) {
+      reportError("scenario", error.what());
     }
   }
-  solve_service_ = private_node.advertiseService("solve", &DemNode::solve, this);
+  ros::NodeHandle service_node(private_node);
+  service_node.setCallbackQueue(&service_queue_);
+  solve_service_ = service_node.advertiseService("solve", &DemNode::solve, this);
+  service_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &service_queue_);
+  service_spinner_->start();
   particles_subscriber_ = node.subscribe("particles", 1, &DemNode::onParticles, this);
   fixtures_subscriber_ = private_node.subscribe("fixtures", 1, &DemNode::onFixtures, this);
   wrench_subscriber_ = private_node.subscribe("wrench", 10, &DemNode::onWrench, this);
@@ -124,22 +171,70 @@ DemNode::DemNode(ros::NodeHandle node, ros::NodeHandle private_node, const DemNo
   ROS_INFO("dem_node: solver %s, scenario '%s'", demnerf::mechanics::solverName(solver_), config_.scenario.c_str());
 }
 
+DemNode::~DemNode() {
+  shutting_down_ = true;
+  cancel_ = true;  // a running solve stops at its next check
+  if (service_spinner_) service_spinner_->stop();  // a waiting ~solve caller is answered first
+  solve_service_.shutdown();  // before its queue goes
+  service_queue_.disable();
+  service_queue_.clear();
+}
+
 void DemNode::onParticles(const sensor_msgs::PointCloud2ConstPtr& message) {
   try {
-    demnerf::core::ParticleCloud cloud = particlesFromPointCloud2(*message);
+    demnerf::core::ParticleCloud cloud =
+        particlesFromPointCloud2(*message, static_cast<std::uint64_t>(config_.max_particles));
+    toParticlesFrame(cloud, message->header);
+    checkSpread(cloud);
     {
       std::lock_guard<std::mutex> lock(mutex_);
       particles_ = std::move(cloud);
       ++particles_generation_;
     }
     requestSolve("new particles");
-  } catch (const Error& error) {
-    reportError(std::string("particles rejected: ") + error.what());
+  } catch (const std::exception& error) {  // core::Error from the checks; bad_alloc; tf
+    reportError("particles", std::string("particles rejected: ") + error.what());
+  } catch (...) {
+    reportError("particles", "particles rejected: unknown exception");
   }
+}
+
+void DemNode::toParticlesFrame(demnerf::core::ParticleCloud& cloud, const std_msgs::Header& header) {
+  if (header.frame_id.empty() || header.frame_id == config_.particles_frame) return;
+  std::string why;
+  if (!tf_buffer_.canTransform(config_.particles_frame, header.frame_id, ros::Time(0),
+                               ros::Duration(config_.tf_timeout), &why)) {
+    throw Error("the cloud is in frame '" + header.frame_id + "' and there is no tf to ~particles_frame '" +
+                config_.particles_frame + "': " + why);
+  }
+  const Eigen::Isometry3d pose =
+      tf2::transformToEigen(tf_buffer_.lookupTransform(config_.particles_frame, header.frame_id, ros::Time(0)));
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    cloud.positions[i] = pose * cloud.positions[i];
+    cloud.normals[i] = pose.linear() * cloud.normals[i];
+  }
+  cloud.validate();
+}
+
+void DemNode::requireParticlesFrame(const std::string& frame_id, const std::string& what) const {
+  if (!frame_id.empty() && frame_id != config_.particles_frame)
+    throw Error(what + " is in frame '" + frame_id + "', but regions are read in ~particles_frame '" +
+                config_.particles_frame + "' (give them there, or leave frame_id empty)");
 }
 
 void DemNode::onFixtures(const dem_nerf::FixtureArrayConstPtr& message) {
   try {
+    requireParticlesFrame(message->header.frame_id, "the fixture array");
+    if (message->fixtures.empty()) {
+      // The message replaces any earlier set: an empty one clears them, and nothing is solved
+      // until fixtures arrive (a body without supports has no equilibrium).
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        scenario_.fixtures.clear();
+      }
+      publishStatus("idle", "fixtures cleared by an empty FixtureArray: no solve until fixtures arrive");
+      return;
+    }
     dem_nerf::LoadCase load_case;
     load_case.fixtures = message->fixtures;
     const demnerf::core::Scenario scenario = scenarioFor(load_case);
@@ -148,8 +243,10 @@ void DemNode::onFixtures(const dem_nerf::FixtureArrayConstPtr& message) {
       scenario_.fixtures = scenario.fixtures;
     }
     requestSolve("new fixtures");
-  } catch (const Error& error) {
-    reportError(std::string("fixtures rejected: ") + error.what());
+  } catch (const std::exception& error) {
+    reportError("fixtures", std::string("fixtures rejected: ") + error.what());
+  } catch (...) {
+    reportError("fixtures", "fixtures rejected: unknown exception");
   }
 }
 
@@ -158,6 +255,7 @@ void DemNode::onWrench(const geometry_msgs::WrenchStampedConstPtr& message) {
     const auto& w = message->wrench;
     const Eigen::Vector3d force(w.force.x, w.force.y, w.force.z), torque(w.torque.x, w.torque.y, w.torque.z);
     if (!force.allFinite() || !torque.allFinite()) throw Error("it holds NaN or Inf");
+    if (message->header.frame_id.empty()) throw Error("its frame_id is empty (the wrench acts at its frame's origin)");
     std::string why;
     if (!tf_buffer_.canTransform(config_.particles_frame, message->header.frame_id, message->header.stamp,
                                  ros::Duration(config_.tf_timeout), &why)) {
@@ -179,42 +277,57 @@ void DemNode::onWrench(const geometry_msgs::WrenchStampedConstPtr& message) {
       scenario_.loads = {load};
     }
     requestSolve("wrench");
-  } catch (const Error& error) {
-    reportError(std::string("wrench rejected: ") + error.what());
+  } catch (const std::exception& error) {  // core::Error; tf2 exceptions
+    reportError("wrench", std::string("wrench rejected: ") + error.what());
+  } catch (...) {
+    reportError("wrench", "wrench rejected: unknown exception");
   }
 }
 
 void DemNode::onLoadCase(const dem_nerf::LoadCaseConstPtr& message) {
   try {
+    requireParticlesFrame(message->header.frame_id, "the load case");
     const demnerf::core::Scenario scenario = scenarioFor(*message);
     {
       std::lock_guard<std::mutex> lock(mutex_);
       scenario_ = scenario;
     }
     requestSolve("load case");
-  } catch (const Error& error) {
-    reportError(std::string("load case rejected: ") + error.what());
+  } catch (const std::exception& error) {
+    reportError("load_case", std::string("load case rejected: ") + error.what());
+  } catch (...) {
+    reportError("load_case", "load case rejected: unknown exception");
   }
 }
 
 void DemNode::onModel(const dem_nerf::ModelInfoConstPtr& message) {
-  std::optional<demnerf::core::ResultField> result;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    model_info_path_ = message->model_path;
-    model_info_frame_ = message->header.frame_id;
-    result = last_result_;
+  try {
+    std::optional<demnerf::core::ResultField> result;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      model_info_path_ = message->model_path;
+      model_info_frame_ = message->header.frame_id;
+      result = last_result_;
+    }
+    if (result) requestRender(*result);  // a newer model changes how the current result looks
+  } catch (const std::exception& error) {
+    reportError("model", std::string("model info: ") + error.what());
   }
-  if (result) requestRender(*result);  // a newer model changes how the current result looks
 }
 
 void DemNode::onRenderCameraInfo(const sensor_msgs::CameraInfoConstPtr& message) {
   try {
+    const std::uint64_t pixels = std::uint64_t(message->width) * message->height;
+    if (pixels > static_cast<std::uint64_t>(config_.max_render_pixels))
+      throw Error(std::to_string(message->width) + "x" + std::to_string(message->height) +
+                  " is more than ~max_render_pixels = " + std::to_string(config_.max_render_pixels) + " pixels");
     const demnerf::core::PinholeCamera camera = fromCameraInfo(*message);
     std::lock_guard<std::mutex> lock(mutex_);
     render_camera_ = camera;
-  } catch (const Error& error) {
-    reportError(std::string("render camera_info rejected: ") + error.what());
+  } catch (const std::exception& error) {
+    reportError("render_camera_info", std::string("render camera_info rejected: ") + error.what());
+  } catch (...) {
+    reportError("render_camera_info", "render camera_info rejected: unknown exception");
   }
 }
 
@@ -284,7 +397,9 @@ void DemNode::runRender(const RenderJob& job) {
     last_render_ = text.str();
   } catch (const std::exception& error) {
     // Bad model files, tf errors and torch errors alike: report, keep the node and the last image.
-    reportError(std::string("~rendered not updated: ") + error.what());
+    reportError("render", std::string("~rendered not updated: ") + error.what());
+  } catch (...) {
+    reportError("render", "~rendered not updated: unknown exception");
   }
 }
 
@@ -301,8 +416,9 @@ demnerf::core::Scenario DemNode::scenarioFor(const dem_nerf::LoadCase& load_case
     scenario.loads.clear();
     for (const auto& load : load_case.loads) scenario.loads.push_back(fromMessage(load));
   }
-  const Eigen::Vector3d body_force(load_case.body_force.x, load_case.body_force.y, load_case.body_force.z);
-  if (!body_force.isZero()) scenario.body_force = body_force;
+  // The load case's body force replaces the current one; zero clears it (LoadCase.msg).
+  scenario.body_force = Eigen::Vector3d(load_case.body_force.x, load_case.body_force.y, load_case.body_force.z);
+  if (!scenario.body_force.allFinite()) throw Error("body_force holds NaN or Inf");
   scenario.validate("load case");
   for (const auto& fixture : scenario.fixtures) {
     demnerf::geometry::selectParticles(*particles_, fixture.region, "fixture '" + fixture.name + "'");
@@ -321,46 +437,128 @@ void DemNode::requestSolve(const std::string& cause) {
     stage_ = "solving";
   }
   job.cause = cause;
-  worker_->submit(std::move(job));
+  submitSolve(std::move(job));
 }
 
-demnerf::mechanics::SimulationOutcome DemNode::solveWithSession(const SolveJob& job, std::string& how) {
+void DemNode::submitSolve(SolveJob job) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    // A long solve yields to the newer request; quick ones finish (a wrench stream still gets
+    // answers), and one a ~solve caller waits for is never cancelled for a topic message.
+    const double running_for =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - solve_started_).count();
+    if (solve_running_ && !solve_has_reply_ && running_for >= config_.supersede_after) cancel_ = true;
+  }
+  const bool from_service = job.reply != nullptr;
+  std::optional<SolveJob> replaced = worker_->exchange(std::move(job));
+  if (!replaced || !replaced->reply) return;
+  if (!from_service) {
+    // A ~solve caller waits for the replaced job: it goes back, and the topic's job runs right
+    // after it starts (a newer topic job replaces a deferred one: latest wins among them).
+    std::optional<SolveJob> topic = worker_->exchange(std::move(*replaced));
+    if (topic) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      deferred_ = std::move(topic);
+    }
+    return;
+  }
+  rejections_.count("solve_superseded", "a waiting ~solve was superseded by a newer ~solve");
+  replaced->reply->set_exception(
+      std::make_exception_ptr(Error("superseded by a newer ~solve before it started; call again")));
+}
+
+demnerf::mechanics::SimulationOutcome DemNode::solveWithSession(const SolveJob& job,
+                                                               const demnerf::mechanics::SolveControl& control,
+                                                               std::string& how) {
   if (!dem_session_) dem_session_ = std::make_unique<demnerf::mechanics::DemSession>(config_.simulateOptions().dem);
   if (session_generation_ != job.cloud_generation) {
     dem_session_->setParticles(job.cloud);
     session_generation_ = job.cloud_generation;
   }
-  const demnerf::mechanics::DemSessionAnswer answer = dem_session_->answer(job.scenario);
+  const demnerf::mechanics::DemSessionAnswer answer = dem_session_->answer(job.scenario, control);
   how = answer.mode == "instant" ? "instant (parametric, load x" + std::to_string(answer.load_scale) + ")"
                                  : answer.mode + " DEM";
   return answer.outcome;
 }
 
+demnerf::mechanics::SimulationOutcome DemNode::solveJob(const SolveJob& job, std::string& how) {
+  // Degenerate set-ups and bad regions are refused here, before any solver factorises anything.
+  demnerf::mechanics::validateProblem(job.scenario, job.cloud);
+  if (loadFree(job.scenario)) {
+    how = "no load: zero displacement";
+    return zeroOutcome(job.cloud);
+  }
+  demnerf::mechanics::SimulateOptions options = config_.simulateOptions();
+  options.control.cancel = &cancel_;
+  options.control.progress = [this](const demnerf::mechanics::SolveProgress& progress) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    solve_progress_ = progress;
+  };
+  // The DEM lives across solves (warm starts; with ~parametric, scaled loads need no training);
+  // the baselines solve from scratch.
+  return solver_ == demnerf::mechanics::SolverChoice::kDem
+             ? solveWithSession(job, options.control, how)
+             : demnerf::mechanics::simulate(job.cloud, job.scenario, solver_, options);
+}
+
 void DemNode::runSolve(const SolveJob& job) {
+  std::optional<SolveJob> deferred;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    deferred = std::move(deferred_);
+    deferred_.reset();
+  }
+  // A topic job that waited behind this ~solve queues now (unless a newer one is already there).
+  if (deferred && !worker_->busyWithWaiting()) worker_->submit(std::move(*deferred));
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    cancel_ = shutting_down_.load();
+    solve_running_ = true;
+    solve_has_reply_ = job.reply != nullptr;
+    solve_started_ = std::chrono::steady_clock::now();
+    solve_progress_ = {};
+    solve_progress_.solver = demnerf::mechanics::solverName(solver_);
+    solve_progress_.phase = "start";
+  }
+  std::exception_ptr failure;
   try {
-    // The DEM lives across solves (warm starts; with ~parametric, scaled loads need no training);
-    // the baselines solve from scratch.
     std::string how;
-    const demnerf::mechanics::SimulationOutcome outcome =
-        solver_ == demnerf::mechanics::SolverChoice::kDem
-            ? solveWithSession(job, how)
-            : demnerf::mechanics::simulate(job.cloud, job.scenario, solver_, config_.simulateOptions());
+    const demnerf::mechanics::SimulationOutcome outcome = solveJob(job, how);
     publishResult(outcome, job.scenario);
     const std::string figures = describe(outcome) + (how.empty() ? "" : ", " + how);
     {
       std::lock_guard<std::mutex> lock(mutex_);
       stage_ = "solved";
       last_figures_ = figures;
+      solve_running_ = false;
     }
     publishStatus("solved", job.cause + ": " + figures);
+    if (job.reply) job.reply->set_value(outcome);  // last: nothing after it can throw
+    return;
+  } catch (const demnerf::mechanics::SolveError& error) {
+    failure = std::current_exception();  // only valid inside the handler
+    reportSolveFailure(job, std::string("solve_") + demnerf::mechanics::solveFailureName(error.failure()), error.what());
   } catch (const Error& error) {
-    // The last good solution stays published; the error says why this one failed.
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      stage_ = "error";
-    }
-    reportError(job.cause + " not solved: " + error.what());
+    failure = std::current_exception();
+    reportSolveFailure(job, "solve_input", error.what());
+  } catch (const std::exception& error) {  // torch's c10::Error (out of memory), bad_alloc, ...
+    failure = std::current_exception();
+    reportSolveFailure(job, "solve_internal", std::string("the solver failed: ") + error.what());
+  } catch (...) {
+    failure = std::current_exception();
+    reportSolveFailure(job, "solve_internal", "the solver failed with an unknown exception");
   }
+  if (job.reply) job.reply->set_exception(failure);
+}
+
+void DemNode::reportSolveFailure(const SolveJob& job, const std::string& cause, const std::string& message) {
+  // The last good solution stays published; the error says why this one failed.
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stage_ = "error";
+    solve_running_ = false;
+  }
+  reportError(cause, job.cause + " not solved: " + message);
 }
 
 void DemNode::publishResult(const demnerf::mechanics::SimulationOutcome& outcome,
@@ -383,16 +581,32 @@ void DemNode::publishResult(const demnerf::mechanics::SimulationOutcome& outcome
   requestRender(outcome.field);
 }
 
+// The request goes through the worker like every other solve (never beside it), and this
+// callback, on its own queue, waits for the answer.
 bool DemNode::solve(dem_nerf::Solve::Request& request, dem_nerf::Solve::Response& response) {
+  bool submitted = false;  // from then on the worker counts a failure
   try {
-    demnerf::core::ParticleCloud cloud;
-    const demnerf::core::Scenario scenario = scenarioFor(request.load_case);
+    requireParticlesFrame(request.load_case.header.frame_id, "the load case");
+    SolveJob job;
+    job.scenario = scenarioFor(request.load_case);
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      cloud = *particles_;
+      job.cloud = *particles_;
+      job.cloud_generation = particles_generation_;
+      stage_ = "solving";
     }
-    const demnerf::mechanics::SimulationOutcome outcome =
-        demnerf::mechanics::simulate(cloud, scenario, solver_, config_.simulateOptions());
+    job.cause = "~solve";
+    job.reply = std::make_shared<std::promise<demnerf::mechanics::SimulationOutcome>>();
+    std::future<demnerf::mechanics::SimulationOutcome> answer = job.reply->get_future();
+    submitSolve(std::move(job));
+    submitted = true;
+    while (answer.wait_for(std::chrono::milliseconds(100)) != std::future_status::ready) {
+      if (shutting_down_ || ros::isShuttingDown()) {
+        cancel_ = true;
+        throw Error("dem_node is shutting down; the solve was cancelled");
+      }
+    }
+    const demnerf::mechanics::SimulationOutcome outcome = answer.get();  // rethrows the solve's error
     std_msgs::Header header = request.load_case.header;
     header.frame_id = config_.particles_frame;
     header.stamp = ros::Time::now();
@@ -402,13 +616,26 @@ bool DemNode::solve(dem_nerf::Solve::Request& request, dem_nerf::Solve::Response
     response.max_displacement = outcome.max_displacement;
     response.ok = true;
     response.message = describe(outcome);
-    publishResult(outcome, scenario);
-  } catch (const Error& error) {
+  } catch (const std::exception& error) {
     response.ok = false;
     response.message = error.what();
-    reportError(error.what());
+    // Refusals before the job ran are counted here; the worker counted failed solves already.
+    if (!submitted) reportError("solve_request", std::string("~solve: ") + error.what());
+  } catch (...) {
+    response.ok = false;
+    response.message = "~solve failed with an unknown exception";
+    reportError("solve_request", response.message);
   }
   return true;
+}
+
+void DemNode::reportError(const std::string& cause, const std::string& message) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    last_error_ = message;
+  }
+  rejections_.count(cause, message);
+  publishStatus("error", message);
 }
 
 void DemNode::publishStatus(const std::string& stage, const std::string& message) {
@@ -416,31 +643,51 @@ void DemNode::publishStatus(const std::string& stage, const std::string& message
   status.header.stamp = ros::Time::now();
   status.stage = stage;
   status.message = message;
+  status.rejections = rejections_.counts();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    status.solve.running = solve_running_;
+    status.solve.time_limit = config_.solver_options.control.time_limit;
+    if (solve_running_) {
+      status.solve.solver = solve_progress_.solver;
+      status.solve.phase = solve_progress_.phase;
+      status.solve.load_fraction = solve_progress_.load_fraction;
+      status.solve.iteration = static_cast<std::uint32_t>(std::max(solve_progress_.iteration, 0));
+      status.solve.energy = solve_progress_.energy;
+      status.solve.residual = solve_progress_.residual;
+      status.solve.elapsed =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - solve_started_).count();
+    }
+  }
   status_publisher_.publish(status);
 }
 
-void DemNode::reportError(const std::string& message) {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    last_error_ = message;
-  }
-  ROS_WARN_THROTTLE(5.0, "dem_node: %s", message.c_str());
-  publishStatus("error", message);
-}
-
 void DemNode::publishPeriodicStatus(const ros::TimerEvent&) {
-  std::string stage, message;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    stage = stage_;
-    message = (particles_ ? std::to_string(particles_->size()) + " particles" : std::string("no particles yet")) +
-              (last_figures_.empty() ? "" : "; last solve: " + last_figures_) +
-              (config_.render_frame.empty() ? ""
-                                            : "; " + std::to_string(renders_) + " renders" +
-                                                  (last_render_.empty() ? "" : " (last " + last_render_ + ")")) +
-              (last_error_.empty() ? "" : "; last error: " + last_error_);
+  try {
+    std::string stage, message;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stage = stage_;
+      message = (particles_ ? std::to_string(particles_->size()) + " particles" : std::string("no particles yet")) +
+                (last_figures_.empty() ? "" : "; last solve: " + last_figures_) +
+                (config_.render_frame.empty() ? ""
+                                              : "; " + std::to_string(renders_) + " renders" +
+                                                    (last_render_.empty() ? "" : " (last " + last_render_ + ")")) +
+                (last_error_.empty() ? "" : "; last error: " + last_error_);
+      if (solve_running_) {
+        std::ostringstream text;
+        text.precision(3);
+        text << "; solving (" << solve_progress_.phase << ", load " << solve_progress_.load_fraction << ", iteration "
+             << solve_progress_.iteration << ", "
+             << std::chrono::duration<double>(std::chrono::steady_clock::now() - solve_started_).count() << " s of "
+             << config_.solver_options.control.time_limit << " s)";
+        message += text.str();
+      }
+    }
+    publishStatus(stage, message);
+  } catch (const std::exception& error) {
+    ROS_ERROR_THROTTLE(5.0, "dem_node: status not published: %s", error.what());
   }
-  publishStatus(stage, message);
 }
 
 }  // namespace dem_nerf

@@ -16,7 +16,12 @@
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 
+#include <ros/callback_queue.h>
+
+#include <atomic>
+#include <chrono>
 #include <cstdint>
+#include <future>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -26,6 +31,8 @@
 #include "demnerf/core/scenario.hpp"
 #include "demnerf/mechanics/dem_session.hpp"
 #include "demnerf/mechanics/simulate.hpp"
+#include "demnerf/mechanics/solve_control.hpp"
+#include "nodes/common/rejection_counter.hpp"
 #include "nodes/dem/deformed_view.hpp"
 #include "nodes/dem/dem_node_config.hpp"
 #include "workers/latest_wins_worker.hpp"
@@ -35,6 +42,8 @@ namespace dem_nerf {
 class DemNode {
  public:
   DemNode(ros::NodeHandle node, ros::NodeHandle private_node, const DemNodeConfig& config);
+  /// Cancels a running solve and answers a waiting ~solve caller before the workers stop.
+  ~DemNode();
 
  private:
   /// What one solve needs; a newer one replaces a waiting one (bursts coalesce).
@@ -43,6 +52,8 @@ class DemNode {
     std::uint64_t cloud_generation = 0;  ///< which particle message the cloud came from
     demnerf::core::Scenario scenario;
     std::string cause;  ///< "wrench", "load case", ... for the status message
+    /// Set for a ~solve call: its caller waits for this (an outcome or the error).
+    std::shared_ptr<std::promise<demnerf::mechanics::SimulationOutcome>> reply;
   };
   /// One image for ~rendered: a newer result replaces one not rendered yet.
   struct RenderJob {
@@ -65,15 +76,29 @@ class DemNode {
   demnerf::core::Scenario scenarioFor(const dem_nerf::LoadCase& load_case);
   /// Queues a solve of the current state when particles and a scenario are there.
   void requestSolve(const std::string& cause);
+  /// Queues the job; a replaced job's ~solve caller is answered "superseded", and a solve that has
+  /// run longer than ~supersede_after (and serves no ~solve caller) is cancelled.
+  void submitSolve(SolveJob job);
   void runSolve(const SolveJob& job);
+  demnerf::mechanics::SimulationOutcome solveJob(const SolveJob& job, std::string& how);
   /// The DEM solve of a job through dem_session_; `how` says instant / warm / cold.
-  demnerf::mechanics::SimulationOutcome solveWithSession(const SolveJob& job, std::string& how);
+  demnerf::mechanics::SimulationOutcome solveWithSession(const SolveJob& job,
+                                                         const demnerf::mechanics::SolveControl& control,
+                                                         std::string& how);
+  /// Counts a failed solve by its cause (SolveError's failure, or the exception kind).
+  void reportSolveFailure(const SolveJob& job, const std::string& cause, const std::string& message);
+  /// Transforms a cloud from its message frame into ~particles_frame through tf (or refuses).
+  void toParticlesFrame(demnerf::core::ParticleCloud& cloud, const std_msgs::Header& header);
+  /// Regions of fixtures and load cases are read in ~particles_frame: another frame is refused.
+  void requireParticlesFrame(const std::string& frame_id, const std::string& what) const;
   void publishResult(const demnerf::mechanics::SimulationOutcome& outcome, const demnerf::core::Scenario& scenario);
   /// Keeps the result for later subscribers and queues a render when someone listens.
   void requestRender(const demnerf::core::ResultField& result);
   void runRender(const RenderJob& job);
   void publishStatus(const std::string& stage, const std::string& message);
-  void reportError(const std::string& message);
+  /// Counts the refusal under `cause`, logs it (once per cause per interval), keeps it as the
+  /// last error and publishes it on ~status at once.
+  void reportError(const std::string& cause, const std::string& message);
   void publishPeriodicStatus(const ros::TimerEvent&);
 
   DemNodeConfig config_;
@@ -86,6 +111,10 @@ class DemNode {
   image_transport::Publisher rendered_publisher_;
   ros::ServiceServer solve_service_;
   ros::Timer status_timer_;
+  RejectionCounter rejections_{"dem_node"};
+  /// Set to stop the running solve (superseded, or shutdown); cleared when a solve starts.
+  std::atomic<bool> cancel_{false};
+  std::atomic<bool> shutting_down_{false};
 
   std::mutex mutex_;  // guards everything below
   std::optional<demnerf::core::ParticleCloud> particles_;
@@ -99,6 +128,12 @@ class DemNode {
   std::optional<demnerf::core::ResultField> last_result_;      ///< what a new subscriber sees
   std::size_t renders_ = 0;
   std::string last_render_;
+  // The running solve, for ~status and for superseding it.
+  bool solve_running_ = false;
+  bool solve_has_reply_ = false;
+  std::chrono::steady_clock::time_point solve_started_;
+  demnerf::mechanics::SolveProgress solve_progress_;
+  std::optional<SolveJob> deferred_;  ///< a topic's job that waits for a ~solve job to start
 
   DeformedView view_;  ///< only the render worker's thread touches it
   // The workers come last (their threads use the members above); the solve worker is destroyed
@@ -110,6 +145,10 @@ class DemNode {
 
   std::unique_ptr<LatestWinsWorker<RenderJob>> render_worker_;
   std::unique_ptr<LatestWinsWorker<SolveJob>> worker_;
+  // ~solve waits for the worker on its own queue and thread, so the status timer and the topics
+  // on the global queue never wait behind it. Last: stopped first.
+  ros::CallbackQueue service_queue_;
+  std::unique_ptr<ros::AsyncSpinner> service_spinner_;
 };
 
 }  // namespace dem_nerf

@@ -59,6 +59,9 @@ DemNodeConfig read(const Node& node) {
   if (config.render_fov >= 180.0) throw Error("parameter ~render_fov must lie below 180 degrees");
   readNumber(node, "tf_timeout", config.tf_timeout, 0.0);
   readNumber(node, "max_solve_rate", config.max_solve_rate, 0.0);
+  readCount(node, "max_particles", config.max_particles, 1);
+  readNumber(node, "supersede_after", config.supersede_after, 0.0);
+  readCount(node, "max_render_pixels", config.max_render_pixels, 1);
   node.param("dem_method", config.dem_method, config.dem_method);
   node.param("solver_config", config.solver_config, config.solver_config);
   config.solver_options = readSolverOptions(node, config);

@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "conversions/camera_info_conversions.hpp"
+#include "conversions/image_layout.hpp"
 #include "demnerf/core/error.hpp"
 
 namespace dem_nerf {
@@ -16,29 +17,32 @@ namespace encodings = sensor_msgs::image_encodings;
 
 }  // namespace
 
-cv::Mat toRgba(const sensor_msgs::Image& image, bool* has_alpha) {
+cv::Mat toRgba(const sensor_msgs::Image& image, bool* has_alpha, std::uint64_t max_pixels) {
+  // Every size checked in 64 bits before cv_bridge, whose own check wraps at 2^32 bytes.
+  checkImageLayout(image, max_pixels);
   const std::string& e = image.encoding;
   int conversion = -1;
   if (e == encodings::RGB8) conversion = cv::COLOR_RGB2RGBA;
   else if (e == encodings::BGR8) conversion = cv::COLOR_BGR2RGBA;
   else if (e == encodings::MONO8) conversion = cv::COLOR_GRAY2RGBA;
   else if (e == encodings::BGRA8) conversion = cv::COLOR_BGRA2RGBA;
-  else if (e != encodings::RGBA8) {
-    throw demnerf::core::Error("image encoding '" + e + "' is not supported (use rgb8, bgr8, rgba8, bgra8 or mono8)");
-  }
   *has_alpha = e == encodings::RGBA8 || e == encodings::BGRA8;
   cv_bridge::CvImageConstPtr shared;
   try {
     shared = cv_bridge::toCvShare(boost::make_shared<sensor_msgs::Image>(image), e);
-  } catch (const cv_bridge::Exception& error) {
+  } catch (const std::exception& error) {  // cv_bridge::Exception, cv::Exception
     throw demnerf::core::Error(std::string("image could not be read: ") + error.what());
   }
-  cv::Mat rgba8;
-  if (conversion >= 0) cv::cvtColor(shared->image, rgba8, conversion);
-  else rgba8 = shared->image;
-  cv::Mat rgba;
-  rgba8.convertTo(rgba, CV_32FC4, 1.0 / 255.0);
-  return rgba;
+  try {
+    cv::Mat rgba8;
+    if (conversion >= 0) cv::cvtColor(shared->image, rgba8, conversion);
+    else rgba8 = shared->image;
+    cv::Mat rgba;
+    rgba8.convertTo(rgba, CV_32FC4, 1.0 / 255.0);
+    return rgba;
+  } catch (const cv::Exception& error) {
+    throw demnerf::core::Error(std::string("image could not be converted: ") + error.what());
+  }
 }
 
 FrameIntake::FrameIntake(const FrameIntakeConfig& config, const tf2_ros::Buffer& tf_buffer)
@@ -57,7 +61,7 @@ void FrameIntake::add(const sensor_msgs::Image& image, const sensor_msgs::Camera
     }
     Pending pending;
     pending.frame.camera = fromCameraInfo(info);
-    pending.frame.rgba = toRgba(image, &pending.frame.has_alpha);
+    pending.frame.rgba = toRgba(image, &pending.frame.has_alpha, config_.max_input_pixels);
     pending.frame.rgba = demnerf::core::fitToSize(pending.frame.rgba, config_.max_image_size, pending.frame.camera);
     if (!pending.frame.has_alpha && config_.colour_key) {
       demnerf::core::applyColourKey(pending.frame.rgba, *config_.colour_key);
@@ -77,6 +81,12 @@ void FrameIntake::add(const sensor_msgs::Image& image, const sensor_msgs::Camera
     std::lock_guard<std::mutex> lock(mutex_);
     ++counts_.rejected;
     throw;
+  } catch (const std::exception& error) {  // OpenCV or allocation failures on a huge image
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++counts_.rejected;
+    }
+    throw demnerf::core::Error(std::string("image could not be prepared: ") + error.what());
   }
 }
 

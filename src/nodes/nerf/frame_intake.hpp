@@ -8,6 +8,7 @@
 #include <sensor_msgs/Image.h>
 #include <tf2_ros/buffer.h>
 
+#include <cstdint>
 #include <deque>
 #include <mutex>
 #include <optional>
@@ -27,6 +28,7 @@ struct FrameIntakeConfig {
   std::optional<demnerf::core::ColourKey> colour_key;  ///< for images without alpha
   demnerf::core::KeyframeConfig keyframes;
   std::size_t max_pending = 30;  ///< images waiting for tf; the oldest is dropped beyond
+  std::uint64_t max_input_pixels = 4096ull * 4096ull;  ///< larger images are refused before decoding
 };
 
 struct FrameIntakeCounts {
@@ -66,7 +68,8 @@ class FrameIntake {
   FrameIntakeCounts counts_;
 };
 
-/// An image message as RGBA float; throws demnerf::core::Error for unsupported encodings.
-cv::Mat toRgba(const sensor_msgs::Image& image, bool* has_alpha);
+/// An image message as RGBA float; throws demnerf::core::Error for unsupported encodings, a
+/// layout that does not match its data (checkImageLayout) or more than max_pixels pixels.
+cv::Mat toRgba(const sensor_msgs::Image& image, bool* has_alpha, std::uint64_t max_pixels = 4096ull * 4096ull);
 
 }  // namespace dem_nerf

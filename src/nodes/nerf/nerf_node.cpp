@@ -33,6 +33,7 @@ FrameIntakeConfig intakeConfig(const NerfNodeConfig& config) {
   intake.world_frame = config.world_frame;
   intake.tf_timeout = config.tf_timeout;
   intake.max_image_size = config.max_image_size;
+  intake.max_input_pixels = static_cast<std::uint64_t>(config.max_input_pixels);
   intake.keyframes.min_translation = config.min_translation;
   intake.keyframes.min_rotation_degrees = config.min_rotation;
   intake.keyframes.max_frames = static_cast<std::size_t>(config.max_frames);
@@ -143,11 +144,13 @@ NerfNode::NerfNode(ros::NodeHandle node, ros::NodeHandle private_node, const Ner
   particles_publisher_ = private_node.advertise<sensor_msgs::PointCloud2>("particles", 1, true);
   mesh_publisher_ = private_node.advertise<visualization_msgs::Marker>("mesh", 1, true);
   model_publisher_ = private_node.advertise<dem_nerf::ModelInfo>("model", 1, true);
-  services_.push_back(private_node.advertiseService("render", &NerfNode::render, this));
-  services_.push_back(private_node.advertiseService("extract", &NerfNode::extract, this));
-  services_.push_back(private_node.advertiseService("save", &NerfNode::save, this));
-  services_.push_back(private_node.advertiseService("load", &NerfNode::load, this));
-  services_.push_back(private_node.advertiseService("reset", &NerfNode::reset, this));
+  ros::NodeHandle service_node(private_node);
+  service_node.setCallbackQueue(&service_queue_);
+  services_.push_back(service_node.advertiseService("render", &NerfNode::render, this));
+  services_.push_back(service_node.advertiseService("extract", &NerfNode::extract, this));
+  services_.push_back(service_node.advertiseService("save", &NerfNode::save, this));
+  services_.push_back(service_node.advertiseService("load", &NerfNode::load, this));
+  services_.push_back(service_node.advertiseService("reset", &NerfNode::reset, this));
   diagnostics_.setHardwareID("dem_nerf");
   diagnostics_.add("nerf_node", this, &NerfNode::fillDiagnostics);
 
@@ -158,7 +161,7 @@ NerfNode::NerfNode(ros::NodeHandle node, ros::NodeHandle private_node, const Ner
       trained_ = std::make_shared<const demnerf::nerf::NerfModel>(*resume_from_);
       stage_ = "waiting_for_frames";
     } catch (const std::exception& error) {
-      reportError(std::string("not resuming: ") + error.what());
+      reportError("resume", std::string("not resuming: ") + error.what());
     }
   }
   if (resume_from_) {
@@ -172,17 +175,23 @@ NerfNode::NerfNode(ros::NodeHandle node, ros::NodeHandle private_node, const Ner
                                   "' (no training record beside it: the iteration count starts at 0)";
     } catch (const demnerf::core::Error& error) {
       resume_note_ = "resumed the weights of '" + config_.model_path + "'; iteration count starts at 0";
-      reportError(error.what());
+      reportError("resume", error.what());
     }
     ROS_INFO("nerf_node: %s", resume_note_.c_str());
   }
   status_timer_ = private_node.createTimer(ros::Duration(1.0), &NerfNode::publishStatus, this);
   poll_timer_ = private_node.createTimer(ros::Duration(0.05), &NerfNode::pollFrames, this);
+  service_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &service_queue_);
+  service_spinner_->start();
   ROS_INFO("nerf_node: listening to %zu camera(s); training starts at %d keyframes; model file '%s'",
            config_.cameras.size(), config_.min_frames, config_.model_path.c_str());
 }
 
 NerfNode::~NerfNode() {
+  if (service_spinner_) service_spinner_->stop();  // waits for a service call in progress
+  for (ros::ServiceServer& service : services_) service.shutdown();  // before their queue goes
+  service_queue_.disable();
+  service_queue_.clear();
   std::unique_ptr<demnerf::nerf::BackgroundTrainer> background;
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -193,32 +202,53 @@ NerfNode::~NerfNode() {
 
 void NerfNode::onImage(const std::string& camera, const sensor_msgs::ImageConstPtr& image,
                        const sensor_msgs::CameraInfoConstPtr& info) {
+  // Images the subscriber queue dropped in a burst, or whose camera_info never matched, leave a
+  // gap in the publisher's sequence numbers: counted, so no drop goes unseen.
+  std::uint32_t missed = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    std::uint32_t& last = last_sequence_[camera];
+    if (last != 0 && image->header.seq > last + 1) missed = image->header.seq - last - 1;
+    last = image->header.seq;
+  }
+  if (missed > 0)
+    rejections_.count("image_not_received", camera + ": " + std::to_string(missed) +
+                                                " image(s) dropped before the node saw them (subscriber queue full, "
+                                                "or no camera_info with the same stamp)");
   try {
     intake_.add(*image, *info);
-  } catch (const demnerf::core::Error& error) {
-    reportError(camera + ": " + error.what());
+  } catch (const std::exception& error) {  // core::Error from the checks; anything else too
+    reportError("image", camera + ": " + error.what());
+  } catch (...) {
+    reportError("image", camera + ": image refused (unknown exception)");
   }
 }
 
 void NerfNode::pollFrames(const ros::TimerEvent&) {
-  std::vector<std::string> dropped;
-  std::vector<demnerf::core::Frame> fresh = intake_.poll(&dropped);
-  for (const std::string& reason : dropped) reportError(reason);
-  if (fresh.empty()) return;
-  std::lock_guard<std::mutex> lock(mutex_);
-  for (auto& frame : fresh) {
-    if (background_ && background_->running()) {
-      try {
-        background_->trainer().addFrame(frame);
-      } catch (const demnerf::core::Error& error) {
-        last_error_ = error.what();
+  try {
+    std::vector<std::string> dropped;
+    std::vector<demnerf::core::Frame> fresh = intake_.poll(&dropped);
+    for (const std::string& reason : dropped) reportError("tf", reason);
+    if (fresh.empty()) return;
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (auto& frame : fresh) {
+      if (background_ && background_->running()) {
+        try {
+          background_->trainer().addFrame(frame);  // the trainer bounds its own store (setMaxFrames)
+        } catch (const std::exception& error) {
+          last_error_ = error.what();
+        }
       }
+      keyframes_.push_back(std::move(frame));
     }
-    keyframes_.push_back(std::move(frame));
+    // The node's copy is bounded too: the oldest keyframes make room.
+    while (keyframes_.size() > static_cast<std::size_t>(config_.max_frames)) keyframes_.erase(keyframes_.begin());
+    if (!background_ && keyframes_.size() >= static_cast<std::size_t>(config_.min_frames)) startTraining();
+  } catch (const std::exception& error) {
+    reportError("internal", std::string("keyframe intake: ") + error.what());
+  } catch (...) {
+    reportError("internal", "keyframe intake: unknown exception");
   }
-  // The frame store is bounded: the oldest keyframes make room (the selector forgets them too).
-  while (keyframes_.size() > static_cast<std::size_t>(config_.max_frames)) keyframes_.erase(keyframes_.begin());
-  if (!background_ && keyframes_.size() >= static_cast<std::size_t>(config_.min_frames)) startTraining();
 }
 
 void NerfNode::startTraining() {
@@ -227,6 +257,7 @@ void NerfNode::startTraining() {
         resume_from_ ? std::make_unique<demnerf::nerf::Trainer>(std::move(*resume_from_))
                      : std::make_unique<demnerf::nerf::Trainer>(nerf_config_, sceneBox(config_, keyframes_), 1.0);
     resume_from_.reset();
+    trainer->setMaxFrames(static_cast<std::size_t>(config_.max_frames));
     trainer->addFrames(keyframes_);
     demnerf::nerf::BackgroundTrainerConfig background;
     // A resumed run continues the same budget. One already spent still trains a moment, so that
@@ -254,11 +285,11 @@ void NerfNode::startTraining() {
     callbacks.done = [this](const demnerf::nerf::NerfModel& model, const demnerf::nerf::TrainProgress& progress) {
       onTrained(model, progress);
     };
-    callbacks.error = [this](const std::string& message) { reportError(message); };
+    callbacks.error = [this](const std::string& message) { reportError("training", message); };
     background_ = std::make_unique<demnerf::nerf::BackgroundTrainer>(std::move(trainer), background, callbacks);
     stage_ = "training";
     ROS_INFO("nerf_node: training on %zu keyframes", keyframes_.size());
-  } catch (const demnerf::core::Error& error) {
+  } catch (const std::exception& error) {  // core::Error, and torch's c10::Error (out of memory)
     stage_ = "error";
     last_error_ = std::string("training could not start: ") + error.what();
     ROS_ERROR("nerf_node: %s", last_error_.c_str());
@@ -278,8 +309,8 @@ void NerfNode::onTrained(const demnerf::nerf::NerfModel& model, const demnerf::n
   }
   try {  // the background trainer has just written the final model file
     saveTrainingRecord(config_.model_path, {progress.iteration, progress.seconds, progress.psnr});
-  } catch (const demnerf::core::Error& error) {
-    reportError(error.what());
+  } catch (const std::exception& error) {
+    reportError("save", error.what());
   }
   ROS_INFO("nerf_node: trained, %lld iterations, training PSNR %.2f dB", static_cast<long long>(progress.iteration),
            progress.psnr);
@@ -296,9 +327,9 @@ void NerfNode::autosave(const demnerf::nerf::NerfModel& model, const demnerf::ne
   try {
     demnerf::nerf::saveModel(model, config_.model_path);
     saveTrainingRecord(config_.model_path, record);
-  } catch (const demnerf::core::Error& error) {
+  } catch (const std::exception& error) {
     // A full disk must not end training: report it; the previous files stay as they were.
-    reportError(std::string("autosave failed: ") + error.what());
+    reportError("save", std::string("autosave failed: ") + error.what());
   }
 }
 
@@ -334,8 +365,8 @@ void NerfNode::publishModel(std::shared_ptr<const demnerf::nerf::NerfModel> mode
     particles_publisher_.publish(toPointCloud2(cloud, header));
     mesh_publisher_.publish(meshMarker(mesh, config_.world_frame));
     ROS_INFO("nerf_node: published %zu particles and a mesh of %zu faces", cloud.size(), mesh.faces.size());
-  } catch (const demnerf::core::Error& error) {
-    reportError(std::string("no particles from the trained model: ") + error.what());
+  } catch (const std::exception& error) {  // core::Error, torch or CGAL errors on an odd model
+    reportError("extract", std::string("no particles from the trained model: ") + error.what());
   }
 }
 
@@ -347,38 +378,46 @@ std::shared_ptr<const demnerf::nerf::NerfModel> NerfNode::currentModel() {
   return trained_;
 }
 
-void NerfNode::reportError(const std::string& message) {
+void NerfNode::reportError(const std::string& cause, const std::string& message) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     last_error_ = message;
   }
-  ROS_WARN_THROTTLE(5.0, "nerf_node: %s", message.c_str());
+  rejections_.count(cause, message);
   dem_nerf::TrainingStatus status;
   status.header.stamp = ros::Time::now();
   status.stage = "error";
   status.message = message;
+  status.rejections = rejections_.counts();
   status_publisher_.publish(status);
 }
 
 void NerfNode::publishStatus(const ros::TimerEvent&) {
-  dem_nerf::TrainingStatus status;
-  status.header.stamp = ros::Time::now();
-  status.header.frame_id = config_.world_frame;
-  const FrameIntakeCounts counts = intake_.counts();
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    status.stage = stage_;
-    status.iteration = static_cast<uint32_t>(progress_.iteration);
-    status.loss = static_cast<float>(progress_.loss);
-    status.psnr = static_cast<float>(progress_.psnr);
-    status.rays_per_second = static_cast<float>(progress_.rays_per_second);
-    status.frames = static_cast<uint32_t>(keyframes_.size());
-    status.message = describe(counts) + (resume_note_.empty() ? "" : "; " + resume_note_) +
-                     (last_error_.empty() ? "" : " (last error: " + last_error_ + ")");
+  try {
+    dem_nerf::TrainingStatus status;
+    status.header.stamp = ros::Time::now();
+    status.header.frame_id = config_.world_frame;
+    const FrameIntakeCounts counts = intake_.counts();
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      status.stage = stage_;
+      status.iteration = static_cast<uint32_t>(progress_.iteration);
+      status.loss = static_cast<float>(progress_.loss);
+      status.psnr = static_cast<float>(progress_.psnr);
+      status.rays_per_second = static_cast<float>(progress_.rays_per_second);
+      status.frames = static_cast<uint32_t>(keyframes_.size());
+      status.message = describe(counts) + (resume_note_.empty() ? "" : "; " + resume_note_) +
+                       (last_error_.empty() ? "" : " (last error: " + last_error_ + ")");
+    }
+    status.rejections = rejections_.counts();
+    status_publisher_.publish(status);
+    diagnostics_.update();  // takes mutex_ itself, in fillDiagnostics
+    publishPreview();
+  } catch (const std::exception& error) {  // a preview render that failed (torch, memory)
+    reportError("internal", std::string("status/preview: ") + error.what());
+  } catch (...) {
+    reportError("internal", "status/preview: unknown exception");
   }
-  status_publisher_.publish(status);
-  diagnostics_.update();  // takes mutex_ itself, in fillDiagnostics
-  publishPreview();
 }
 
 // Compute only when someone listens: the preview costs a render, so it runs only with subscribers.
@@ -421,16 +460,31 @@ bool NerfNode::render(dem_nerf::RenderView::Request& request, dem_nerf::RenderVi
     const auto model = currentModel();
     if (!model) throw demnerf::core::Error("no model yet: training has not started (waiting for keyframes)");
     const demnerf::core::PinholeCamera camera = fromCameraInfo(request.camera_info);
-    Eigen::Isometry3d pose;
-    tf2::fromMsg(request.pose, pose);
+    const std::uint64_t pixels = std::uint64_t(request.camera_info.width) * request.camera_info.height;
+    if (pixels > static_cast<std::uint64_t>(config_.max_render_pixels))
+      throw demnerf::core::Error("render of " + std::to_string(request.camera_info.width) + "x" +
+                                 std::to_string(request.camera_info.height) + " refused: more than ~max_render_pixels = " +
+                                 std::to_string(config_.max_render_pixels) + " pixels");
+    const auto& q = request.pose.orientation;
+    const Eigen::Quaterniond rotation(q.w, q.x, q.y, q.z);
+    if (!rotation.coeffs().allFinite() || rotation.norm() < 1e-6)
+      throw demnerf::core::Error("pose orientation is not a rotation (a zero, NaN or Inf quaternion)");
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.linear() = rotation.normalized().toRotationMatrix();  // tf2::fromMsg would not normalise
+    pose.translation() = Eigen::Vector3d(request.pose.position.x, request.pose.position.y, request.pose.position.z);
     if (!pose.matrix().allFinite()) throw demnerf::core::Error("pose holds NaN or Inf");
     std_msgs::Header header = request.camera_info.header;
     response.image = toImageMessage(demnerf::nerf::renderImage(*model, camera, pose), header);
     response.ok = true;
     response.message = "rendered " + std::to_string(camera.width) + "x" + std::to_string(camera.height);
-  } catch (const demnerf::core::Error& error) {
+  } catch (const std::exception& error) {
     response.ok = false;
     response.message = error.what();
+    rejections_.count("render", std::string("~render: ") + error.what());
+  } catch (...) {
+    response.ok = false;
+    response.message = "render failed (unknown exception)";
+    rejections_.count("render", response.message);
   }
   return true;
 }
@@ -448,9 +502,14 @@ bool NerfNode::extract(dem_nerf::ExtractParticles::Request& request, dem_nerf::E
     response.cloud = toPointCloud2(cloud, header);
     response.ok = true;
     response.message = std::to_string(cloud.size()) + " particles";
-  } catch (const demnerf::core::Error& error) {
+  } catch (const std::exception& error) {
     response.ok = false;
     response.message = error.what();
+    rejections_.count("extract", std::string("~extract: ") + error.what());
+  } catch (...) {
+    response.ok = false;
+    response.message = "extraction failed (unknown exception)";
+    rejections_.count("extract", response.message);
   }
   return true;
 }
@@ -463,9 +522,14 @@ bool NerfNode::save(dem_nerf::SaveModel::Request& request, dem_nerf::SaveModel::
     demnerf::nerf::saveModel(*model, path);
     response.ok = true;
     response.message = "saved to " + path;
-  } catch (const demnerf::core::Error& error) {
+  } catch (const std::exception& error) {
     response.ok = false;
     response.message = error.what();
+    rejections_.count("save", std::string("~save: ") + error.what());
+  } catch (...) {
+    response.ok = false;
+    response.message = "save failed (unknown exception)";
+    rejections_.count("save", response.message);
   }
   return true;
 }
@@ -487,7 +551,11 @@ bool NerfNode::load(dem_nerf::LoadModel::Request& request, dem_nerf::LoadModel::
   } catch (const std::exception& error) {  // core::Error, and whatever a garbage file makes torch throw
     response.ok = false;
     response.message = error.what();  // the model in use, if any, is kept
-    reportError(response.message);
+    reportError("load", response.message);
+  } catch (...) {
+    response.ok = false;
+    response.message = "load failed (unknown exception); the model in use is kept";
+    reportError("load", response.message);
   }
   return true;
 }

@@ -9,11 +9,13 @@
 #include <dem_nerf/SaveModel.h>
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <image_transport/image_transport.h>
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <std_srvs/Trigger.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 
+#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -21,6 +23,7 @@
 
 #include "demnerf/nerf/background_trainer.hpp"
 #include "demnerf/nerf/config.hpp"
+#include "nodes/common/rejection_counter.hpp"
 #include "nodes/nerf/frame_intake.hpp"
 #include "nodes/nerf/nerf_node_config.hpp"
 #include "nodes/nerf/training_record.hpp"
@@ -46,7 +49,9 @@ class NerfNode {
   void publishModel(std::shared_ptr<const demnerf::nerf::NerfModel> model, std::uint32_t iteration, float psnr);
   void publishStatus(const ros::TimerEvent&);
   void publishPreview();
-  void reportError(const std::string& message);
+  /// Counts the refusal under `cause`, logs it (once per cause per interval), keeps it as the
+  /// last error and publishes it on ~status at once.
+  void reportError(const std::string& cause, const std::string& message);
   void fillDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
   /// The trained model, or a snapshot of the one in training; null before training starts.
   std::shared_ptr<const demnerf::nerf::NerfModel> currentModel();
@@ -68,6 +73,7 @@ class NerfNode {
   image_transport::Publisher preview_publisher_;
   std::vector<ros::ServiceServer> services_;
   ros::Timer status_timer_, poll_timer_;
+  RejectionCounter rejections_{"nerf_node"};
   diagnostic_updater::Updater diagnostics_;
 
   std::mutex mutex_;  // guards everything below
@@ -82,6 +88,12 @@ class NerfNode {
   std::string stage_ = "waiting_for_frames";
   std::string last_error_;
   ros::WallTime last_preview_;
+  std::map<std::string, std::uint32_t> last_sequence_;  ///< per camera: the last image's header.seq
+
+  // The services (a render takes seconds) run on their own queue and thread, so that the status
+  // timer and the image intake on the global queue never wait behind them. Last: stopped first.
+  ros::CallbackQueue service_queue_;
+  std::unique_ptr<ros::AsyncSpinner> service_spinner_;
 };
 
 }  // namespace dem_nerf

@@ -17,6 +17,8 @@ NerfNodeConfig NerfNodeConfig::fromParameters(const ros::NodeHandle& node) {
   readCount(node, "max_frames", config.max_frames, 1);
   readCount(node, "min_frames", config.min_frames, 1);
   readCount(node, "max_image_size", config.max_image_size, 16);
+  readCount(node, "max_input_pixels", config.max_input_pixels, 1);
+  readCount(node, "max_render_pixels", config.max_render_pixels, 1);
   config.aabb = readList(node, "aabb", 6);
   if (!config.aabb.empty() && (config.aabb[3] <= config.aabb[0] || config.aabb[4] <= config.aabb[1] ||
                                config.aabb[5] <= config.aabb[2])) {

@@ -17,6 +17,8 @@ struct NerfNodeConfig {
   int max_frames = 200;               ///< keyframes kept (oldest dropped beyond)
   int min_frames = 8;                 ///< keyframes needed before training starts
   int max_image_size = 400;           ///< images are downscaled so their longer side fits
+  int max_input_pixels = 4096 * 4096; ///< larger camera images are refused before decoding (16.8 Mpx, 268 MB as float RGBA)
+  int max_render_pixels = 640 * 480;  ///< ~render refuses larger images (time and memory grow with the pixels)
   std::vector<double> aabb;           ///< xmin ymin zmin xmax ymax zmax; empty: from the cameras
   std::vector<double> background_color;  ///< RGB in [0,1] of a single-colour backdrop; empty: none
   double key_tolerance = 0.1;         ///< colour distance that still counts as backdrop

@@ -43,8 +43,14 @@ Dirichlet resolveFixtures(const core::Scenario& scenario, const std::vector<Eige
 /// naming the load and its region when it selects no surface particle.
 std::vector<Eigen::Vector3d> particleTractions(const core::Scenario& scenario, const core::ParticleCloud& cloud);
 
+/// Throws SolveError{SolveFailure::kDegenerate} when the fixed components cannot give a unique
+/// equilibrium: no particle fixed, every particle fully fixed (nothing to solve), or a rigid-body
+/// motion left free (one pinned particle, pins on a line, rollers that allow a slide). `what` names
+/// the scenario in the message. Runs in O(fixed particles), before anything is factorised.
+void checkSupports(const Dirichlet& dirichlet, const core::ParticleCloud& cloud, const std::string& what);
+
 /// Everything a particle solver checks before it starts: the scenario, the cloud, that volumes
-/// are positive, fixtures and loads select particles.
+/// are positive, fixtures and loads select particles, and checkSupports (SolveError kDegenerate).
 void validateProblem(const core::Scenario& scenario, const core::ParticleCloud& cloud);
 
 }  // namespace demnerf::mechanics

@@ -12,6 +12,7 @@
 #include "demnerf/core/scenario.hpp"
 #include "demnerf/mechanics/dem_solver.hpp"
 #include "demnerf/mechanics/simulate.hpp"
+#include "demnerf/mechanics/solve_control.hpp"
 
 namespace demnerf::mechanics {
 

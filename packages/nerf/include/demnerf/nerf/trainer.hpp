@@ -54,6 +54,11 @@ class Trainer {
   void addFrame(const core::Frame& frame);
   void addFrames(const std::vector<core::Frame>& frames);
   std::size_t frameCount() const;
+  /// Bounds the frame store (0: unbounded, the default): once addFrame goes past max_frames, the
+  /// most redundant frame is evicted, i.e. one of the two whose poses are closest (translation over
+  /// the scene box's diagonal plus rotation angle over pi), the older of the two; so a live rig's
+  /// store keeps its spread of viewpoints and its memory stays flat. Thread-safe.
+  void setMaxFrames(std::size_t max_frames);
 
   /// Runs `iterations` steps now (no stop criterion: the lr schedule follows setBudget).
   StepResult step(int iterations = 1);
@@ -76,6 +81,8 @@ class Trainer {
  private:
   struct StoredFrame;
   void gatherBatch(std::int64_t rays, TrainRays& batch);
+  void evictRedundantFrames();  // with frames_mutex_ held
+  std::size_t max_frames_ = 0;  ///< guarded by frames_mutex_
   double learningRate() const;
 
   NerfConfig config_;
