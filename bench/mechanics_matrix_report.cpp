@@ -20,6 +20,13 @@ std::string fixed(double value, int digits) {
   return text;
 }
 
+// Lengths in the scenario's units (metres, or Beam3D's unit length): 4 significant digits.
+std::string length(double value) {
+  char text[64];
+  std::snprintf(text, sizeof text, "%.4g", value);
+  return text;
+}
+
 std::string percent(double fraction) {
   const double p = 100 * fraction;
   return fixed(p, std::abs(p) < 10 ? 2 : 1) + " %";
@@ -101,7 +108,8 @@ std::string markdown(const MatrixReport& report) {
   md << "`" << report.title << "`\n\n";
   md << "Each cell: rel. L2 error of u against the reference FEM (TET10 on a CGAL Mesh_3 mesh of the same surface, "
         "at the same particles), wall seconds, energy error against the reference's energy; or the failure and its "
-        "reason. h = smallest body dimension / divisor.\n\n";
+        "reason. h = smallest body dimension / divisor (in the scenario's length unit: metres, Beam3D's unit "
+        "length).\n\n";
   md << "| scenario | source | sampler | h | particles |";
   for (const std::string& s : report.solvers) md << " " << s << " |";
   md << "\n|---|---|---|---|---|";
@@ -109,7 +117,7 @@ std::string markdown(const MatrixReport& report) {
   md << "\n";
   for (const MatrixRow& row : report.rows) {
     md << "| " << row.scenario << " | " << row.source << " | " << row.sampler << " | 1/" << row.spacing_divisor << " ("
-       << fixed(1e3 * row.spacing, 2) << " mm) | " << row.particles << " |";
+       << length(row.spacing) << ") | " << row.particles << " |";
     for (const std::string& s : report.solvers) {
       const MatrixCell* c = findCell(row, s);
       if (!row.cloud_error.empty()) {
@@ -131,8 +139,8 @@ std::string markdown(const MatrixReport& report) {
   md << "| scenario | source | fine h (dofs, s) | coarse h (dofs, s) | coarse vs fine rel. L2 | converged < 0.5 % | "
         "energy (fine) | sanity of the fine solution |\n|---|---|---|---|---|---|---|---|\n";
   for (const ConvergenceRow& r : report.convergence) {
-    md << "| " << r.scenario << " | " << r.source << " | " << fixed(1e3 * r.fine_cell, 2) << " mm (" << r.fine_dofs << ", "
-       << fixed(r.fine_seconds, 1) << " s) | " << fixed(1e3 * r.coarse_cell, 2) << " mm (" << r.coarse_dofs << ", "
+    md << "| " << r.scenario << " | " << r.source << " | " << length(r.fine_cell) << " (" << r.fine_dofs << ", "
+       << fixed(r.fine_seconds, 1) << " s) | " << length(r.coarse_cell) << " (" << r.coarse_dofs << ", "
        << fixed(r.coarse_seconds, 1) << " s) | ";
     if (!r.error.empty()) {
       md << "failed: " << markdownText(r.error) << " | **no** | | |\n";
