@@ -15,7 +15,8 @@
 //   time_limit=60 (s per cell, SolveControl::time_limit)   mlp_iters=1500 (paper's DEM, per load step)
 //   fem_cell=0 (m; FEM column's mesh size, 0: the CLI's automatic size)
 //   ref_div=8 conv_div=6 (reference FEM cells: smallest dimension / these)   ref_time_limit=1800
-//   nerf_seconds=60   seed=1
+//   nerf_seconds=60   seed=1   yaml=PATH (with one scenario: solve this YAML instead of
+//             config/scenarios/<name>.yaml, on the same surface; e.g. thinner fixture bands)
 //   out=DIR (default output/bench/mechanics_matrix: reference and NeRF caches, CSV/MD/PNG)
 //   docs=DIR (default docs/ for a full run, none for quick=1 or a subset: also write
 //             DIR/mechanics_matrix.{csv,md,png})
@@ -67,7 +68,7 @@ struct Settings {
   std::vector<int> divisors;
   double time_limit = 60.0, ref_time_limit = 1800.0, fem_cell = 0.0, nerf_seconds = 60.0;
   int mlp_iters = 1500, ref_div = 8, conv_div = 6, seed = 1;
-  std::string out, docs, title;
+  std::string out, docs, title, yaml;
   bool partial = false;
 };
 
@@ -92,7 +93,9 @@ Settings parseSettings(int argc, char** argv) {
   s.ref_div = static_cast<int>(num("ref_div", s.ref_div));
   s.conv_div = static_cast<int>(num("conv_div", s.conv_div));
   s.seed = static_cast<int>(num("seed", s.seed));
-  s.partial = s.scenarios.size() < bench::matrixCases().size() || s.samplers.size() < 3 || s.sources.size() < 2 ||
+  s.yaml = text("yaml", "");
+  if (!s.yaml.empty() && s.scenarios.size() != 1) throw demnerf::core::Error("yaml= needs exactly one scenario in scenarios=");
+  s.partial = !s.yaml.empty() || s.scenarios.size() < bench::matrixCases().size() || s.samplers.size() < 3 || s.sources.size() < 2 ||
               s.solvers.size() < 4 || s.divisors.size() < 3;
   s.out = text("out", std::string(DEMNERF_ROOT) + "/output/bench/mechanics_matrix");
   s.docs = text("docs", s.partial ? "" : std::string(DEMNERF_ROOT) + "/docs");
@@ -357,7 +360,8 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "unknown scenario '%s'\n", name.c_str());
       return 2;
     }
-    const core::Scenario scenario = core::loadScenario(std::string(DEMNERF_ROOT) + "/config/scenarios/" + name + ".yaml");
+    const core::Scenario scenario =
+        core::loadScenario(s.yaml.empty() ? std::string(DEMNERF_ROOT) + "/config/scenarios/" + name + ".yaml" : s.yaml);
     for (const std::string& source : s.sources) {
       if (source == "nerf" && mc->nerf_scene.empty()) continue;  // NeRF rows: T-bar and cuboid only
       core::TriangleMesh surface;
