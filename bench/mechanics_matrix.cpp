@@ -13,7 +13,7 @@
 //   samplers=random,poisson,grid   spacings=6,10,15 (divisors of the smallest dimension)
 //   sources=exact,nerf   solvers=fem,dem,dem_mlp,dem_mlp_exact
 //   time_limit=60 (s per cell, SolveControl::time_limit)   mlp_iters=1500 (paper's DEM, per load step)
-//   fem_cell=0 (m; FEM column's mesh size, 0: the CLI's automatic size)
+//   fem_div=0 (FEM column's mesh size = smallest dimension / fem_div; 0: the CLI's automatic size)
 //   ref_div=8 conv_div=6 (reference FEM cells: smallest dimension / these)   ref_time_limit=1800
 //   nerf_seconds=60   seed=1   yaml=PATH (with one scenario: solve this YAML instead of
 //             config/scenarios/<name>.yaml, on the same surface; e.g. thinner fixture bands)
@@ -66,7 +66,7 @@ std::vector<std::string> split(const std::string& text) {
 struct Settings {
   std::vector<std::string> scenarios, samplers, sources, solvers;
   std::vector<int> divisors;
-  double time_limit = 60.0, ref_time_limit = 1800.0, fem_cell = 0.0, nerf_seconds = 60.0;
+  double time_limit = 60.0, ref_time_limit = 1800.0, fem_div = 0.0, nerf_seconds = 60.0;
   int mlp_iters = 1500, ref_div = 8, conv_div = 6, seed = 1;
   std::string out, docs, title, yaml;
   bool partial = false;
@@ -87,7 +87,7 @@ Settings parseSettings(int argc, char** argv) {
   for (const std::string& d : split(text("spacings", quick ? "6" : "6,10,15"))) s.divisors.push_back(std::stoi(d));
   s.time_limit = num("time_limit", s.time_limit);
   s.ref_time_limit = num("ref_time_limit", s.ref_time_limit);
-  s.fem_cell = num("fem_cell", s.fem_cell);
+  s.fem_div = num("fem_div", s.fem_div);
   s.nerf_seconds = num("nerf_seconds", s.nerf_seconds);
   s.mlp_iters = static_cast<int>(num("mlp_iters", s.mlp_iters));
   s.ref_div = static_cast<int>(num("ref_div", s.ref_div));
@@ -105,12 +105,13 @@ Settings parseSettings(int argc, char** argv) {
 }
 
 // The solver columns: what `demnerf simulate` runs for each, with the bench's time limit.
-dm::SimulateOptions solverOptions(const std::string& solver, const Settings& s, const core::TriangleMesh& surface) {
+dm::SimulateOptions solverOptions(const std::string& solver, const Settings& s, const core::TriangleMesh& surface,
+                                  double smallest) {
   dm::SimulateOptions o;
   o.control.time_limit = s.time_limit;
   if (solver == "fem") {
     o.surface = surface;  // `--solver fem --order 2 --mesh mesh.ply`
-    o.voxel.cell = s.fem_cell;
+    o.voxel.cell = s.fem_div > 0 ? smallest / s.fem_div : 0.0;
     o.voxel.order = 2;
   } else if (solver == "dem") {
     o.dem.grid_spacings = 2;  // the feature-grid DEM, Newton only
@@ -203,13 +204,13 @@ core::ResultField slice(const core::ResultField& field, std::size_t begin, std::
 // One solver on one cloud: converged (with errors against the reference when there is one) or the
 // failure's cause and message.
 bench::MatrixCell runCell(const std::string& solver, const core::ParticleCloud& cloud, const core::Scenario& scenario,
-                          const core::TriangleMesh& surface, const Settings& s, const core::ResultField* reference,
-                          double reference_energy) {
+                          const core::TriangleMesh& surface, double smallest, const Settings& s,
+                          const core::ResultField* reference, double reference_energy) {
   bench::MatrixCell cell;
   cell.solver = solver;
   const auto start = std::chrono::steady_clock::now();
   try {
-    const dm::SimulationOutcome out = dm::simulate(cloud, scenario, solverChoice(solver), solverOptions(solver, s, surface));
+    const dm::SimulationOutcome out = dm::simulate(cloud, scenario, solverChoice(solver), solverOptions(solver, s, surface, smallest));
     cell.seconds = bench::since(start);
     cell.converged = true;
     cell.energy = out.energy;
@@ -332,8 +333,8 @@ void runSource(const bench::MatrixCase& mc, const core::Scenario& scenario, cons
         for (const Vector3d& u : reference.displacements) row.reference_max_u = std::max(row.reference_max_u, u.norm());
       }
       for (const std::string& solver : s.solvers) {
-        row.cells.push_back(runCell(solver, clouds[r], scenario, surface, s, fine.error.empty() ? &reference : nullptr,
-                                    fine.energy));
+        row.cells.push_back(runCell(solver, clouds[r], scenario, surface, mc.smallest, s,
+                                    fine.error.empty() ? &reference : nullptr, fine.energy));
         printCell(row, row.cells.back());
       }
     }
@@ -352,7 +353,7 @@ int main(int argc, char** argv) {
   report.partial = s.partial;
   report.solvers = s.solvers;
   std::filesystem::create_directories(s.out);
-  for (const std::string& solver : s.solvers) solverOptions(solver, s, {});  // unknown names fail before any work
+  for (const std::string& solver : s.solvers) solverOptions(solver, s, {}, 1.0);  // unknown names fail before any work
   const std::vector<bench::MatrixCase> cases = bench::matrixCases();
   for (const std::string& name : s.scenarios) {
     const auto mc = std::find_if(cases.begin(), cases.end(), [&](const bench::MatrixCase& c) { return c.name == name; });
