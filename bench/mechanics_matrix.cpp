@@ -325,7 +325,9 @@ void runSource(const bench::MatrixCase& mc, const core::Scenario& scenario, cons
     if (coarse.error.empty()) conv.rel_l2 = dm::compareResults(coarse.field, fine.field).rel_l2;
   }
   if (!conv.error.empty()) {
-    std::printf("%s %s reference FAILED (cells get no errors): %s\n", mc.name.c_str(), source.c_str(), conv.error.c_str());
+    std::printf("%s %s reference FAILED%s: %s\n", mc.name.c_str(), source.c_str(),
+                fine.error.empty() ? " (the coarse check only; cells use the fine one)" : " (cells get no errors)",
+                conv.error.c_str());
   } else {
     std::printf("%s %s reference: fine h=%.4g (%d dofs, %.1f s) vs coarse h=%.4g: rel L2 %.3f %%%s; sanity: %s%s\n",
                 mc.name.c_str(), source.c_str(), fine.cell, fine.dofs, fine.seconds, coarse.cell, 100 * conv.rel_l2,
