@@ -25,3 +25,30 @@ set_target_properties(mechanics_convergence PROPERTIES RUNTIME_OUTPUT_DIRECTORY 
 add_executable(mechanics_fem_convergence ${CMAKE_CURRENT_LIST_DIR}/mechanics_fem_convergence.cpp)
 target_link_libraries(mechanics_fem_convergence PRIVATE demnerf_mechanics)
 set_target_properties(mechanics_fem_convergence PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin/bench")
+
+# mechanics_matrix: the solver matrix of issue 13 (docs/mechanics_matrix.{csv,md,png}). Its NeRF
+# rows train and extract a NeRF (demnerf_nerf, demnerf_render) and its clouds come from the
+# product's samplers (demnerf_geometry); in the root build render is added after mechanics, so the
+# target is declared at the end of the top-level directory (like geometry_tbar_extraction).
+if(NOT COMMAND demnerf_mechanics_matrix_bench)
+  function(demnerf_mechanics_matrix_bench)
+    if(TARGET mechanics_matrix OR NOT TARGET demnerf_render OR NOT TARGET demnerf_geometry)
+      return()
+    endif()
+    # Torch's and OpenMP's imported targets are directory-scoped: find them where the bench is.
+    find_package(Torch REQUIRED)
+    find_package(OpenMP REQUIRED)
+    add_executable(mechanics_matrix ${DEMNERF_ROOT_DIR}/bench/mechanics_matrix.cpp
+                                    ${DEMNERF_ROOT_DIR}/bench/mechanics_matrix_cases.cpp
+                                    ${DEMNERF_ROOT_DIR}/bench/mechanics_matrix_nerf.cpp
+                                    ${DEMNERF_ROOT_DIR}/bench/mechanics_matrix_report.cpp)
+    target_link_libraries(mechanics_matrix PRIVATE demnerf_mechanics demnerf_geometry demnerf_render demnerf_nerf)
+    target_compile_definitions(mechanics_matrix PRIVATE DEMNERF_ROOT="${DEMNERF_ROOT_DIR}")
+    set_target_properties(mechanics_matrix PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin/bench")
+  endfunction()
+endif()
+if(CMAKE_SOURCE_DIR STREQUAL DEMNERF_ROOT_DIR)
+  cmake_language(DEFER DIRECTORY ${CMAKE_SOURCE_DIR} CALL demnerf_mechanics_matrix_bench)
+else()
+  demnerf_mechanics_matrix_bench()  # standalone mechanics build: only when render was added too
+endif()

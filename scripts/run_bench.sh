@@ -25,11 +25,14 @@ declare -A COMMANDS=(
   [mechanics_dem_tbar_grid]="case=tbar iters=0 grid=0.015 seeds=3"
   [mechanics_pinn]="case=uniaxial seeds=3"
   [mechanics_convergence]="case=tbar reference=$ROOT/bench/data/tbar_twist_fem_reference.ply iters=400 out=$OUT/dem_convergence_tbar"
+  # The solver matrix (hours on 2 cores; writes docs/mechanics_matrix.{csv,md,png}). MATRIX_ARGS
+  # narrows it, e.g. MATRIX_ARGS=quick=1 for a smoke run.
+  [mechanics_matrix]="out=$OUT/mechanics_matrix ${MATRIX_ARGS:-}"
 )
 # Entries that run another entry's binary with other arguments.
 declare -A BINARIES=([mechanics_dem_tbar_grid]=mechanics_dem)
 ORDER=(render_synth_bench geometry_sampling_bench nerf_kernels nerf_train geometry_tbar_extraction mechanics_cook mechanics_dem
-       mechanics_dem_tbar_grid mechanics_pinn mechanics_convergence)
+       mechanics_dem_tbar_grid mechanics_pinn mechanics_convergence mechanics_matrix)
 status=0
 for name in ${BENCH:-${ORDER[@]}}; do
   binary=${BINARIES[$name]:-$name}

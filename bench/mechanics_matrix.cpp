@@ -1,0 +1,403 @@
+// The solver matrix (issue 13): every scenario of config/scenarios/ that the matrix names, on
+// particle clouds from the product's own samplers (random, Poisson, grid) at spacings of 1/6,
+// 1/10 and 1/15 of the body's smallest dimension, from the exact surface and (T-bar, cuboid) a
+// 60 s NeRF's extracted surface, solved by the default DEM (feature grid, Newton only), the
+// paper's DEM (MLP alone; penalty or exact boundary) and FEM TET10, all through
+// mechanics::simulate() as `demnerf simulate` solves them. Each cell is compared with a reference
+// FEM TET10 on a CGAL Mesh_3 mesh of the same surface, solved at two mesh sizes (the coarse one
+// shows how converged the fine one is).
+//
+// Usage: mechanics_matrix key=value ...
+//   scenarios=tbar_twist,cuboid_twist,cantilever_bending,uniaxial_compression,self_weight_sag,
+//             cook_membrane_plane_strain,beam3d   (default: all)
+//   samplers=random,poisson,grid   spacings=6,10,15 (divisors of the smallest dimension)
+//   sources=exact,nerf   solvers=fem,dem,dem_mlp,dem_mlp_exact
+//   time_limit=60 (s per cell, SolveControl::time_limit)   mlp_iters=1500 (paper's DEM, per load step)
+//   fem_div=0 (FEM column's mesh size = smallest dimension / fem_div; 0: the CLI's automatic size)
+//   ref_div=8 conv_div=6 (reference FEM cells: smallest dimension / these)   ref_time_limit=1800
+//   nerf_seconds=60   seed=1   yaml=PATH (with one scenario: solve this YAML instead of
+//             config/scenarios/<name>.yaml, on the same surface; e.g. thinner fixture bands)
+//   out=DIR (default output/bench/mechanics_matrix: reference and NeRF caches, CSV/MD/PNG)
+//   docs=DIR (default docs/ for a full run, none for quick=1 or a subset: also write
+//             DIR/mechanics_matrix.{csv,md,png})
+//   quick=1: beam3d, grid sampler, coarsest spacing, exact surface, solvers fem,dem (a smoke run)
+// Prints one line per cell as it finishes and the Markdown table at the end.
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "demnerf/core/error.hpp"
+#include "demnerf/core/ply.hpp"
+#include "demnerf/core/scenario.hpp"
+#include "demnerf/geometry/particle_sampler.hpp"
+#include "demnerf/mechanics/compare_results.hpp"
+#include "demnerf/mechanics/simulate.hpp"
+#include "demnerf/mechanics/solve_control.hpp"
+#include "mechanics_bench_common.hpp"
+#include "mechanics_matrix_cases.hpp"
+#include "mechanics_matrix_nerf.hpp"
+#include "mechanics_matrix_report.hpp"
+
+namespace dm = demnerf::mechanics;
+namespace core = demnerf::core;
+namespace geo = demnerf::geometry;
+namespace bench = demnerf::bench;
+using Eigen::Vector3d;
+
+namespace {
+
+std::vector<std::string> split(const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream in(text);
+  for (std::string item; std::getline(in, item, ',');)
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+struct Settings {
+  std::vector<std::string> scenarios, samplers, sources, solvers;
+  std::vector<int> divisors;
+  double time_limit = 60.0, ref_time_limit = 1800.0, fem_div = 0.0, nerf_seconds = 60.0;
+  int mlp_iters = 1500, ref_div = 8, conv_div = 6, seed = 1;
+  std::string out, docs, title, yaml;
+  bool partial = false;
+};
+
+Settings parseSettings(int argc, char** argv) {
+  std::map<std::string, std::string> a = bench::keyValueArguments(argc, argv);
+  const bool quick = a.count("quick") && a["quick"] != "0";
+  auto text = [&](const char* key, const std::string& fallback) { return a.count(key) ? a[key] : fallback; };
+  auto num = [&](const char* key, double fallback) { return a.count(key) ? std::stod(a[key]) : fallback; };
+  std::string all;
+  for (const bench::MatrixCase& c : bench::matrixCases()) all += (all.empty() ? "" : ",") + c.name;
+  Settings s;
+  s.scenarios = split(text("scenarios", quick ? "beam3d" : all));
+  s.samplers = split(text("samplers", quick ? "grid" : "random,poisson,grid"));
+  s.sources = split(text("sources", quick ? "exact" : "exact,nerf"));
+  s.solvers = split(text("solvers", quick ? "fem,dem" : "fem,dem,dem_mlp,dem_mlp_exact"));
+  for (const std::string& d : split(text("spacings", quick ? "6" : "6,10,15"))) s.divisors.push_back(std::stoi(d));
+  s.time_limit = num("time_limit", s.time_limit);
+  s.ref_time_limit = num("ref_time_limit", s.ref_time_limit);
+  s.fem_div = num("fem_div", s.fem_div);
+  s.nerf_seconds = num("nerf_seconds", s.nerf_seconds);
+  s.mlp_iters = static_cast<int>(num("mlp_iters", s.mlp_iters));
+  s.ref_div = static_cast<int>(num("ref_div", s.ref_div));
+  s.conv_div = static_cast<int>(num("conv_div", s.conv_div));
+  s.seed = static_cast<int>(num("seed", s.seed));
+  s.yaml = text("yaml", "");
+  if (!s.yaml.empty() && s.scenarios.size() != 1) throw demnerf::core::Error("yaml= needs exactly one scenario in scenarios=");
+  s.partial = !s.yaml.empty() || s.scenarios.size() < bench::matrixCases().size() || s.samplers.size() < 3 || s.sources.size() < 2 ||
+              s.solvers.size() < 4 || s.divisors.size() < 3;
+  s.out = text("out", std::string(DEMNERF_ROOT) + "/output/bench/mechanics_matrix");
+  s.docs = text("docs", s.partial ? "" : std::string(DEMNERF_ROOT) + "/docs");
+  s.title = "mechanics_matrix";
+  for (int i = 1; i < argc; ++i) s.title += std::string(" ") + argv[i];
+  return s;
+}
+
+// The solver columns: what `demnerf simulate` runs for each, with the bench's time limit.
+dm::SimulateOptions solverOptions(const std::string& solver, const Settings& s, const core::TriangleMesh& surface,
+                                  double smallest) {
+  dm::SimulateOptions o;
+  o.control.time_limit = s.time_limit;
+  if (solver == "fem") {
+    o.surface = surface;  // `--solver fem --order 2 --mesh mesh.ply`
+    o.voxel.cell = s.fem_div > 0 ? smallest / s.fem_div : 0.0;
+    o.voxel.order = 2;
+  } else if (solver == "dem") {
+    o.dem.grid_spacings = 2;  // the feature-grid DEM, Newton only
+    o.dem.grid_cell = 0;
+    o.dem.adam_iterations = 0;
+  } else if (solver == "dem_mlp" || solver == "dem_mlp_exact") {
+    o.dem.grid_spacings = 0;  // the paper's DEM: the MLP alone, trained by Adam
+    o.dem.grid_cell = 0;
+    o.dem.adam_iterations = s.mlp_iters;
+    o.dem.boundary = solver == "dem_mlp" ? dm::DemConfig::Boundary::kPenalty : dm::DemConfig::Boundary::kExact;
+  } else {
+    throw core::Error("unknown solver column '" + solver + "': use fem, dem, dem_mlp or dem_mlp_exact");
+  }
+  return o;
+}
+
+dm::SolverChoice solverChoice(const std::string& solver) {
+  return solver == "fem" ? dm::SolverChoice::kFem : dm::SolverChoice::kDem;
+}
+
+// One reference FEM solve at mesh size `cell` on the union cloud, cached as a result PLY (+ a line
+// of figures) in the out dir; a cache on other particles is solved again.
+struct Reference {
+  core::ResultField field;
+  double energy = 0.0, seconds = 0.0, cell = 0.0;
+  int dofs = 0;
+  std::string error;
+};
+
+Reference referenceFem(const core::ParticleCloud& cloud, const core::Scenario& scenario,
+                       const core::TriangleMesh& surface, double cell, const Settings& s, const std::string& stem) {
+  Reference r;
+  r.cell = cell;
+  const std::string ply = stem + ".ply", figures = stem + ".txt";
+  if (std::filesystem::exists(ply) && std::filesystem::exists(figures)) {
+    core::ResultField field = core::readResult(ply);
+    // Result PLYs hold floats: the same particles agree to float precision of the body's size.
+    Eigen::AlignedBox3d box;
+    for (const Vector3d& x : cloud.positions) box.extend(x);
+    const double tolerance = 1e-6 * box.diagonal().norm();
+    bool same = field.size() == cloud.size();
+    for (std::size_t i = 0; same && i < cloud.size(); ++i) same = (field.positions[i] - cloud.positions[i]).norm() < tolerance;
+    std::ifstream in(figures);
+    if (same && (in >> r.energy >> r.dofs >> r.seconds)) {
+      r.field = std::move(field);
+      std::fprintf(stderr, "  reference h=%g: cached %s\n", cell, ply.c_str());
+      return r;
+    }
+  }
+  dm::SimulateOptions o;
+  o.surface = surface;
+  o.voxel.cell = cell;
+  o.voxel.order = 2;
+  o.control.time_limit = s.ref_time_limit;
+  o.control.progress_interval = 10.0;
+  o.control.progress = [](const dm::SolveProgress& p) {
+    std::fprintf(stderr, "    reference %s: load %.3f it %d residual %.2e, %.0f s\n", p.phase.c_str(), p.load_fraction,
+                 p.iteration, p.residual, p.elapsed);
+  };
+  const auto start = std::chrono::steady_clock::now();
+  try {
+    const dm::SimulationOutcome out = dm::simulate(cloud, scenario, dm::SolverChoice::kFem, o);
+    r.field = out.field;
+    r.energy = out.energy;
+    r.dofs = 3 * out.mesh_nodes;
+    r.seconds = bench::since(start);
+    core::writeResult(ply, r.field);
+    std::ofstream(figures) << std::setprecision(17) << r.energy << " " << r.dofs << " " << r.seconds << "\n";
+    std::fprintf(stderr, "  reference h=%g: %d dofs, %.1f s, energy %.6g\n", cell, r.dofs, r.seconds, r.energy);
+  } catch (const std::exception& e) {
+    r.error = e.what();
+    r.seconds = bench::since(start);
+    std::fprintf(stderr, "  reference h=%g FAILED after %.1f s: %s\n", cell, r.seconds, e.what());
+  }
+  return r;
+}
+
+void append(core::ParticleCloud& all, const core::ParticleCloud& part) {
+  all.positions.insert(all.positions.end(), part.positions.begin(), part.positions.end());
+  all.volumes.insert(all.volumes.end(), part.volumes.begin(), part.volumes.end());
+  all.normals.insert(all.normals.end(), part.normals.begin(), part.normals.end());
+  all.areas.insert(all.areas.end(), part.areas.begin(), part.areas.end());
+  all.colors.insert(all.colors.end(), part.colors.begin(), part.colors.end());
+}
+
+core::ResultField slice(const core::ResultField& field, std::size_t begin, std::size_t count) {
+  core::ResultField out;
+  out.positions.assign(field.positions.begin() + begin, field.positions.begin() + begin + count);
+  out.displacements.assign(field.displacements.begin() + begin, field.displacements.begin() + begin + count);
+  out.von_mises.assign(field.von_mises.begin() + begin, field.von_mises.begin() + begin + count);
+  return out;
+}
+
+// One solver on one cloud: converged (with errors against the reference when there is one) or the
+// failure's cause and message.
+bench::MatrixCell runCell(const std::string& solver, const core::ParticleCloud& cloud, const core::Scenario& scenario,
+                          const core::TriangleMesh& surface, double smallest, const Settings& s,
+                          const core::ResultField* reference, double reference_energy) {
+  bench::MatrixCell cell;
+  cell.solver = solver;
+  const auto start = std::chrono::steady_clock::now();
+  try {
+    const dm::SimulationOutcome out = dm::simulate(cloud, scenario, solverChoice(solver), solverOptions(solver, s, surface, smallest));
+    cell.seconds = bench::since(start);
+    cell.converged = true;
+    cell.energy = out.energy;
+    if (reference) {
+      const dm::ResultComparison c = dm::compareResults(out.field, *reference);
+      double max_u = 0;
+      for (const Vector3d& u : reference->displacements) max_u = std::max(max_u, u.norm());
+      cell.has_error = true;
+      cell.rel_l2 = c.rel_l2;
+      cell.max_error = c.max_error;
+      cell.max_error_rel = c.max_error / max_u;
+      cell.energy_error = (out.energy - reference_energy) / std::abs(reference_energy);
+    }
+  } catch (const dm::SolveError& e) {
+    cell.seconds = bench::since(start);
+    cell.failure = dm::solveFailureName(e.failure());
+    cell.reason = e.what();
+  } catch (const std::exception& e) {  // core::Error (bad input, a failed solve) and anything else
+    cell.seconds = bench::since(start);
+    cell.failure = "error";
+    cell.reason = e.what();
+  }
+  return cell;
+}
+
+void printCell(const bench::MatrixRow& row, const bench::MatrixCell& c) {
+  if (!c.converged) {
+    std::printf("%s %s %s 1/%d (%zu): %-13s FAIL %s after %.1f s: %s\n", row.scenario.c_str(), row.source.c_str(),
+                row.sampler.c_str(), row.spacing_divisor, row.particles, c.solver.c_str(), c.failure.c_str(), c.seconds,
+                c.reason.c_str());
+  } else {
+    std::printf("%s %s %s 1/%d (%zu): %-13s %.1f s, energy %.6g, rel L2 %s, max err %.3g %% of max|u|, energy err %+.3g %%\n",
+                row.scenario.c_str(), row.source.c_str(), row.sampler.c_str(), row.spacing_divisor, row.particles,
+                c.solver.c_str(), c.seconds, c.energy, c.has_error ? (std::to_string(100 * c.rel_l2) + " %").c_str() : "-",
+                100 * c.max_error_rel, 100 * c.energy_error);
+  }
+  std::fflush(stdout);
+}
+
+void writeOutputs(const bench::MatrixReport& report, const Settings& s) {
+  for (const std::string& dir : {s.out, s.docs}) {
+    if (dir.empty()) continue;
+    std::filesystem::create_directories(dir);
+    bench::writeCsv(report, dir + "/mechanics_matrix.csv");
+    std::ofstream(dir + "/mechanics_matrix.md") << bench::markdown(report);
+    bench::writeHeatMap(report, dir + "/mechanics_matrix.png");
+  }
+}
+
+// Every row (and its solver cells) of one scenario from one surface.
+void runSource(const bench::MatrixCase& mc, const core::Scenario& scenario, const std::string& source,
+               const core::TriangleMesh& surface, const Settings& s, bench::MatrixReport& report) {
+  // The clouds, and their union (plus the sanity probes) on which the reference is solved once.
+  std::vector<bench::MatrixRow> rows;
+  std::vector<core::ParticleCloud> clouds;
+  std::vector<std::size_t> offsets;
+  core::ParticleCloud all;
+  for (const std::string& sampler : s.samplers)
+    for (int divisor : s.divisors) {
+      bench::MatrixRow row{mc.name, source, sampler, divisor, mc.smallest / divisor};
+      geo::SamplerConfig config;
+      core::ParticleCloud cloud;
+      try {
+        config.method = geo::parseSamplingMethod(sampler);
+        config.spacing = row.spacing;
+        config.seed = static_cast<std::uint64_t>(s.seed);
+        cloud = geo::sampleParticles(surface, config);
+        row.particles = cloud.size();
+      } catch (const std::exception& e) {
+        row.cloud_error = e.what();
+        std::printf("%s %s %s 1/%d: sampler failed: %s\n", mc.name.c_str(), source.c_str(), sampler.c_str(), divisor,
+                    e.what());
+      }
+      offsets.push_back(all.size());
+      append(all, cloud);
+      clouds.push_back(std::move(cloud));
+      rows.push_back(row);
+    }
+  const std::size_t probes_at = all.size();
+  for (const bench::Probe& p : mc.probes) {
+    core::ParticleCloud probe;
+    probe.resize(1);
+    probe.positions[0] = p.point;
+    probe.volumes[0] = 0.0;
+    probe.areas[0] = 0.0;
+    probe.normals[0] = Vector3d::Zero();
+    probe.colors[0] = {0, 0, 0};
+    append(all, probe);
+  }
+  // The reference FEM at two mesh sizes.
+  bench::ConvergenceRow conv{mc.name, source};
+  const std::string stem = s.out + "/reference_" + mc.name + "_" + source;
+  std::fprintf(stderr, "%s / %s: reference FEM TET10 on %zu points\n", mc.name.c_str(), source.c_str(), all.size());
+  const Reference fine = referenceFem(all, scenario, surface, mc.smallest / s.ref_div, s, stem + "_fine");
+  const Reference coarse = referenceFem(all, scenario, surface, mc.smallest / s.conv_div, s, stem + "_coarse");
+  conv.fine_cell = fine.cell, conv.coarse_cell = coarse.cell;
+  conv.fine_dofs = fine.dofs, conv.coarse_dofs = coarse.dofs;
+  conv.fine_seconds = fine.seconds, conv.coarse_seconds = coarse.seconds;
+  conv.fine_energy = fine.energy, conv.coarse_energy = coarse.energy;
+  conv.error = !fine.error.empty() ? "fine: " + fine.error : (!coarse.error.empty() ? "coarse: " + coarse.error : "");
+  if (fine.error.empty()) {
+    std::vector<Vector3d> at;
+    for (std::size_t i = probes_at; i < all.size(); ++i) at.push_back(fine.field.displacements[i]);
+    const bench::Sanity sanity = mc.check(at);
+    conv.sanity = sanity.text, conv.sanity_ok = sanity.ok;
+    if (coarse.error.empty()) conv.rel_l2 = dm::compareResults(coarse.field, fine.field).rel_l2;
+  }
+  if (!conv.error.empty()) {
+    std::printf("%s %s reference FAILED%s: %s\n", mc.name.c_str(), source.c_str(),
+                fine.error.empty() ? " (the coarse check only; cells use the fine one)" : " (cells get no errors)",
+                conv.error.c_str());
+  } else {
+    std::printf("%s %s reference: fine h=%.4g (%d dofs, %.1f s) vs coarse h=%.4g: rel L2 %.3f %%%s; sanity: %s%s\n",
+                mc.name.c_str(), source.c_str(), fine.cell, fine.dofs, fine.seconds, coarse.cell, 100 * conv.rel_l2,
+                conv.rel_l2 < 0.005 ? "" : " (NOT converged to 0.5 %)", conv.sanity_ok ? "" : "CHECK FAILED: ",
+                conv.sanity.c_str());
+  }
+  report.convergence.push_back(conv);
+  // The cells.
+  for (std::size_t r = 0; r < rows.size(); ++r) {
+    bench::MatrixRow& row = rows[r];
+    if (row.cloud_error.empty()) {
+      core::ResultField reference;
+      if (fine.error.empty()) {
+        reference = slice(fine.field, offsets[r], clouds[r].size());
+        row.reference_energy = fine.energy;
+        for (const Vector3d& u : reference.displacements) row.reference_max_u = std::max(row.reference_max_u, u.norm());
+      }
+      for (const std::string& solver : s.solvers) {
+        row.cells.push_back(runCell(solver, clouds[r], scenario, surface, mc.smallest, s,
+                                    fine.error.empty() ? &reference : nullptr, fine.energy));
+        printCell(row, row.cells.back());
+      }
+    }
+    report.rows.push_back(row);
+    writeOutputs(report, s);  // a run stopped early keeps what it measured
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);
+  const Settings s = parseSettings(argc, argv);
+  bench::MatrixReport report;
+  report.title = s.title;
+  report.partial = s.partial;
+  report.solvers = s.solvers;
+  std::filesystem::create_directories(s.out);
+  for (const std::string& solver : s.solvers) solverOptions(solver, s, {}, 1.0);  // unknown names fail before any work
+  const std::vector<bench::MatrixCase> cases = bench::matrixCases();
+  for (const std::string& name : s.scenarios) {
+    const auto mc = std::find_if(cases.begin(), cases.end(), [&](const bench::MatrixCase& c) { return c.name == name; });
+    if (mc == cases.end()) {
+      std::fprintf(stderr, "unknown scenario '%s'\n", name.c_str());
+      return 2;
+    }
+    const core::Scenario scenario =
+        core::loadScenario(s.yaml.empty() ? std::string(DEMNERF_ROOT) + "/config/scenarios/" + name + ".yaml" : s.yaml);
+    for (const std::string& source : s.sources) {
+      if (source == "nerf" && mc->nerf_scene.empty()) continue;  // NeRF rows: T-bar and cuboid only
+      core::TriangleMesh surface;
+      try {
+        if (source == "exact") {
+          surface = mc->surface();
+        } else if (source == "nerf") {
+          surface = bench::nerfSurface({mc->nerf_scene, s.out + "/nerf_" + mc->nerf_scene, s.nerf_seconds});
+        } else {
+          throw core::Error("unknown source '" + source + "': use exact or nerf");
+        }
+      } catch (const std::exception& e) {
+        std::printf("%s %s: no surface: %s\n", name.c_str(), source.c_str(), e.what());
+        bench::ConvergenceRow conv{name, source};
+        conv.error = std::string("no surface: ") + e.what();
+        report.convergence.push_back(conv);
+        continue;
+      }
+      runSource(*mc, scenario, source, surface, s, report);
+    }
+  }
+  writeOutputs(report, s);
+  std::printf("\n%s", bench::markdown(report).c_str());
+  return 0;
+}

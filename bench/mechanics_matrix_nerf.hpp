@@ -1,0 +1,24 @@
+#pragma once
+// The solver matrix's NeRF source: the surface a user gets from `demnerf synth`, `demnerf train`
+// and `demnerf extract` on a synthetic scene, cached so reruns skip the training.
+
+#include <string>
+
+#include "demnerf/core/ply.hpp"
+
+namespace demnerf::bench {
+
+struct NerfSurfaceConfig {
+  std::string scene;       ///< tbar | cuboid (render::SynthConfig::scene)
+  std::string work_dir;    ///< views, model and the cached mesh (created if absent)
+  double seconds = 60.0;   ///< NeRF training time, as `demnerf train --seconds`
+  int resolution = 192;    ///< density cells along the longest side, `demnerf extract`'s default
+  int max_faces = 20000;   ///< edge-collapse budget: the CGAL reference meshes stay quick
+};
+
+/// WORK_DIR/extracted_mesh.ply when it exists; otherwise synthesises the scene's views (48, 200 px),
+/// trains the NeRF for `seconds`, extracts the opacity-0.15 surface like `demnerf extract` and
+/// caches it there. Throws core::Error (or the library's errors) when a stage fails.
+core::TriangleMesh nerfSurface(const NerfSurfaceConfig& config);
+
+}  // namespace demnerf::bench
