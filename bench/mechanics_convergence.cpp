@@ -140,7 +140,7 @@ int main(int argc, char** argv) {
   base.width = static_cast<int>(num("width", which == "tbar" ? 32 : 16));
   base.depth = static_cast<int>(num("depth", which == "tbar" ? 3 : 2));
   base.adam_iterations = iters;
-  base.grid_body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
+  base.grid_spacings = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
   scenario.load_steps = 1;
   std::vector<Variant> variants;
   variants.push_back({"Adam", base, cv::Scalar(200, 60, 0), {}});

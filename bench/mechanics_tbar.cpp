@@ -81,7 +81,7 @@ int main(int argc, char** argv) {
   for (int seed = 1; seed <= 3; ++seed) {
     dm::DemConfig config;
     config.adam_iterations = dem_iterations;
-    config.grid_body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
+    config.grid_spacings = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
     config.seed = seed;
     dm::DemSolver dem(cloud, scenario, config);
     const dm::DemReport r = dem.solve();

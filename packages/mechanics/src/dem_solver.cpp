@@ -794,9 +794,12 @@ DemSolver::DemSolver(core::ParticleCloud cloud, const core::Scenario& scenario, 
     in = out;
   }
   if (config.grid_cell > 0) {
-    // Half a spacing of margin: a lattice cloud whose outer particles carry whole cells of volume
-    // describes a body that far beyond its particles (cell_quadrature.hpp moves the surface out).
-    const Eigen::Vector3d margin = Eigen::Vector3d::Constant(0.5 * spacing);
+    // The cell quadrature gets half a spacing of margin: a lattice cloud whose outer particles
+    // carry whole cells of volume describes a body that far beyond its particles
+    // (cell_quadrature.hpp moves the surface out). The particle quadrature stays on the particles:
+    // nodes seen only at the edge of their support would be near-singular.
+    const double pad = config.grid_quadrature == DemConfig::GridQuadrature::kCells ? 0.5 * spacing : 0.0;
+    const Eigen::Vector3d margin = Eigen::Vector3d::Constant(pad);
     m.grid = std::make_unique<BsplineGrid>(lo - margin, hi + margin, config.grid_cell, config.grid_degree);
     if (m.grid->nodeCount() > 4000000)
       throw core::Error("DEM feature grid of " + std::to_string(m.grid->nodeCount()) + " nodes: grid_cell " +
@@ -936,7 +939,7 @@ DemReport DemSolver::solve() {
             m.restore(saved);
             m.fraction = done;
           },
-          "DEM", m.grid ? m.gridFailureAdvice() : "Use more load_steps or a smaller load.", m.config.verbose);
+          "DEM", m.grid ? "" : "Use more load_steps or a smaller load.", m.config.verbose);
     }
   } catch (const SolveError&) {
     m.restore(saved);
@@ -947,8 +950,9 @@ DemReport DemSolver::solve() {
     // The load stepping gave up: every step size tried inverted, diverged or did not converge.
     m.fraction = m.done_fraction;
     m.clock.reset();
+    // The grid's advice names the last Newton solve's residual and det F, known only now.
     throw SolveError(m.grid && m.last_grid.min_J > 0 ? SolveFailure::kNotConverged : SolveFailure::kInverted,
-                     e.what());
+                     m.grid ? std::string(e.what()) + m.gridFailureAdvice() : std::string(e.what()));
   }
   m.clock.reset();
   m.fraction = 1.0;
