@@ -65,7 +65,8 @@ void applyDemFlags(const Arguments& arguments, mechanics::DemConfig& dem) {
   if (arguments.has("grid-body-cells")) {
     dem.grid_body_cells = arguments.number("grid-body-cells");
     if (!(dem.grid_body_cells > 0))
-      throw UsageError("option --grid-body-cells expects how many grid cells the body's volume holds (> 0; 600 by default)");
+      throw UsageError("option --grid-body-cells expects how many grid cells the body's volume holds (> 0; 600 suits the T-bar)");
+    if (!arguments.has("grid-spacings")) dem.grid_spacings = 0.0;  // the body, not the particles, sizes the cells
   }
   const bool grid_flag = arguments.has("grid-cell") || arguments.has("grid-spacings") || arguments.has("grid-body-cells");
   // With the feature grid its Newton solve is the training: Adam only when --iterations asks.
@@ -191,19 +192,19 @@ const char* usage() {
          "  --print-config         print the settings these options give, as a --config file, and exit\n"
          "  --json                 last line of stdout: the figures as one JSON object\n"
          "DEM:\n"
-         "  --method grid|mlp      default grid: the MLP plus a B-spline feature grid whose cells the body\n"
-         "                         holds "
-      << number(d.dem.grid_body_cells)
-      << " times, integrated by Gauss points in its cells and solved by Newton;\n"
-         "                         mlp: the paper's DEM, the MLP alone trained by Adam\n"
+         "  --method grid|mlp      default grid: the MLP plus a B-spline feature grid "
+      << number(d.dem.grid_spacings)
+      << " particle spacings wide,\n"
+         "                         solved by Newton; mlp: the paper's DEM, the MLP alone trained by Adam\n"
          "                         ("
       << mlp.adam_iterations << " steps per load step) with the penalty boundary\n"
-         "  --grid-body-cells N    default "
-      << number(d.dem.grid_body_cells)
-      << ": grid cells in the body's volume, cell = (V / N)^(1/3) (not below the particle spacing)\n"
          "  --grid-spacings S      default "
       << number(d.dem.grid_spacings)
-      << " (off): cell in particle spacings instead; takes precedence over --grid-body-cells\n"
+      << ": feature grid cell in particle spacings (below 1.5 is refused with the particle quadrature)\n"
+         "  --grid-body-cells N    default "
+      << number(d.dem.grid_body_cells)
+      << " (off): cell = (V / N)^(1/3) from the body's volume instead of the particle spacing;\n"
+         "                         pairs with grid_quadrature: cells in --config (docs/dem_feature_grid.md)\n"
          "  --grid-cell H          default "
       << number(d.dem.grid_cell)
       << " (off): cell edge in m; takes precedence over both; any grid flag sets Adam to 0\n"

@@ -20,6 +20,7 @@ demnerf::mechanics::SimulateOptions readSolverOptions(const Node& node, const De
   readNumber(node, "dem_grid_cell", dem.grid_cell, 0.0);
   readNumber(node, "dem_grid_spacings", dem.grid_spacings, 0.0);
   readNumber(node, "dem_grid_body_cells", dem.grid_body_cells, 0.0);
+  if (node.hasParam("dem_grid_body_cells") && !node.hasParam("dem_grid_spacings")) dem.grid_spacings = 0.0;
   // With the feature grid its Newton solve is the training: Adam only when asked for.
   if ((node.hasParam("dem_grid_cell") || node.hasParam("dem_grid_spacings") || node.hasParam("dem_grid_body_cells")) &&
       !node.hasParam("dem_iterations"))
