@@ -1,6 +1,7 @@
 // The DEM's B-spline feature grid: the basis itself, its Newton solve, and the DEM that uses it.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
 #include <random>
 #include <unistd.h>
@@ -12,6 +13,7 @@
 #include "demnerf/mechanics/dem_solver.hpp"
 #include "demnerf/mechanics/fem_solver.hpp"
 #include "demnerf/mechanics/reference_problems.hpp"
+#include "demnerf/mechanics/solve_control.hpp"
 #include "demnerf/mechanics/voxel_mesh.hpp"
 
 #include "box_region.hpp"
@@ -274,5 +276,59 @@ TEST(DemGrid, SimpleShearMatchesTheClosedFormWithAndWithoutTheGrid) {
     std::cout << "simple shear, DEM " << (grid ? "grid Newton" : "MLP Adam 300") << ": max error / gamma "
               << err / gamma << " in " << r.seconds << " s\n";
     EXPECT_LT(err / gamma, 0.01) << (grid ? "grid" : "MLP");
+  }
+}
+
+TEST(DemGrid, SolveControlStopsReportsAndKeepsTheLastGoodState) {
+  const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(8, 8, 8));
+  const core::Scenario s = dm::uniaxialTractionScenario(2e5);
+  dm::DemConfig config;
+  config.grid_cell = 0.25;
+  config.threads = 1;
+  // Progress reaches the sink with the fields filled; the answer is a checked equilibrium.
+  {
+    dm::DemSolver dem(cloud, s, config);
+    std::vector<dm::SolveProgress> reports;
+    dm::SolveControl control;
+    control.progress_interval = 0.0;
+    control.progress = [&](const dm::SolveProgress& p) { reports.push_back(p); };
+    dem.setControl(control);
+    const dm::DemReport r = dem.solve();
+    ASSERT_FALSE(reports.empty());
+    EXPECT_EQ(reports.back().solver, "dem");
+    EXPECT_EQ(reports.back().phase, "newton");
+    EXPECT_GT(reports.back().load_fraction, 0.0);
+    EXPECT_LE(r.residual, 1e-6);
+    EXPECT_LT(r.energy, 0.0);
+  }
+  // A cancel flag set before the first iteration stops the solve with its cause, and the solver
+  // keeps the undeformed state it started from.
+  {
+    dm::DemSolver dem(cloud, s, config);
+    std::atomic<bool> cancel{true};
+    dm::SolveControl control;
+    control.cancel = &cancel;
+    dem.setControl(control);
+    try {
+      dem.solve();
+      ADD_FAILURE() << "a cancelled solve returned";
+    } catch (const dm::SolveError& e) {
+      EXPECT_EQ(e.failure(), dm::SolveFailure::kCancelled) << e.what();
+      EXPECT_NE(std::string(e.what()).find("load fraction 0"), std::string::npos) << e.what();
+    }
+    for (const Vector3d& u : dem.predict(cloud.positions)) EXPECT_LT(u.norm(), 1e-12);
+  }
+  // A spent budget says so.
+  {
+    dm::DemSolver dem(cloud, s, config);
+    dm::SolveControl control;
+    control.time_limit = 1e-9;
+    dem.setControl(control);
+    try {
+      dem.solve();
+      ADD_FAILURE() << "a solve past its time limit returned";
+    } catch (const dm::SolveError& e) {
+      EXPECT_EQ(e.failure(), dm::SolveFailure::kTimeLimit) << e.what();
+    }
   }
 }
