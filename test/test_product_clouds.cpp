@@ -13,6 +13,7 @@
 #include "demnerf/mechanics/simulate.hpp"
 #include "demnerf/mechanics/solve_control.hpp"
 #include "demnerf/render/scene_geometry.hpp"
+#include "../packages/mechanics/test/box_region.hpp"
 
 namespace dm = demnerf::mechanics;
 namespace core = demnerf::core;
@@ -20,13 +21,7 @@ using Eigen::Vector3d;
 
 namespace {
 
-core::Region box(const Vector3d& center, const Vector3d& size) {
-  core::Region r;
-  r.type = core::Region::Type::kBox;
-  r.center = center;
-  r.size = size;
-  return r;
-}
+using demnerf::mechanics::test::box;
 
 // config/scenarios/tbar_twist.yaml at half its torque (one load step for the FEM), in code so the
 // test does not depend on the working directory.
