@@ -47,30 +47,29 @@ std::pair<double, double> loadRange(const std::string& range) {
 
 /// The DEM settings of the flags over `dem` (the method's preset with the config file over it).
 void applyDemFlags(const Arguments& arguments, mechanics::DemConfig& dem) {
-  dem.adam_iterations = arguments.integer("iterations", dem.adam_iterations);
   dem.width = arguments.integer("width", dem.width);
   dem.depth = arguments.integer("depth", dem.depth);
   dem.threads = arguments.integer("threads", dem.threads);
   if (arguments.flag("newton")) dem.output_newton = true;
+  mechanics::DemGridChoice grid;
+  if (arguments.has("iterations")) grid.adam_iterations = arguments.integer("iterations", dem.adam_iterations);
   if (arguments.has("grid-cell")) {
-    dem.grid_cell = arguments.number("grid-cell");
-    if (!(dem.grid_cell > 0))
+    grid.cell = arguments.number("grid-cell");
+    if (!(*grid.cell > 0))
       throw UsageError("option --grid-cell expects the feature grid's cell edge in metres (> 0; about two particle spacings)");
   }
   if (arguments.has("grid-spacings")) {
-    dem.grid_spacings = arguments.number("grid-spacings");
-    if (!(dem.grid_spacings > 0))
+    grid.spacings = arguments.number("grid-spacings");
+    if (!(*grid.spacings > 0))
       throw UsageError("option --grid-spacings expects the feature grid's cell in particle spacings (> 0; 2 is a good choice)");
   }
   if (arguments.has("grid-body-cells")) {
-    dem.grid_body_cells = arguments.number("grid-body-cells");
-    if (!(dem.grid_body_cells > 0))
+    grid.body_cells = arguments.number("grid-body-cells");
+    if (!(*grid.body_cells > 0))
       throw UsageError("option --grid-body-cells expects how many grid cells the body's volume holds (> 0; 600 suits the T-bar)");
-    if (!arguments.has("grid-spacings")) dem.grid_spacings = 0.0;  // the body, not the particles, sizes the cells
   }
-  const bool grid_flag = arguments.has("grid-cell") || arguments.has("grid-spacings") || arguments.has("grid-body-cells");
-  // With the feature grid its Newton solve is the training: Adam only when --iterations asks.
-  if (grid_flag && !arguments.has("iterations")) dem.adam_iterations = 0;
+  dem = mechanics::withGridChoice(dem, grid);
+  const bool grid_flag = grid.cell || grid.spacings || grid.body_cells;
   if (arguments.has("boundary")) {
     const std::string boundary = arguments.text("boundary");
     if (boundary == "penalty") dem.boundary = mechanics::DemConfig::Boundary::kPenalty;

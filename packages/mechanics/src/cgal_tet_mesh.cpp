@@ -102,11 +102,12 @@ TetMesh cgalMeshFromSurface(const core::TriangleMesh& surface, const CgalMeshCon
   Surface polyhedron;
   CGAL::Polygon_mesh_processing::polygon_soup_to_polygon_mesh(points, triangles, polyhedron);
 
-  // The domain's initial points draw random numbers: seed them so a mesh repeats within a process.
-  // Across processes it can still differ slightly (T-bar, h = 0.01: 9358-9362 tets, FEM rel L2
-  // spread 1e-5), presumably from CGAL containers ordered by memory address (ASLR). Exudation
-  // (deterministic) removes most slivers, whose near-singular Jacobians stall the FEM's Newton solve. The sliver perturber is off: with it, meshes of the
-  // same input differed from one call to the next in one process (box test, 425 vs 417 tets).
+  // The domain's initial points draw random numbers: seed them. A mesh still differs slightly from
+  // one call to the next when the heap differs (box test after the DEM tests: 799 vs 794 nodes;
+  // T-bar, h = 0.01: 9358-9362 tets, FEM rel L2 spread 1e-5), presumably from CGAL containers
+  // ordered by memory address. Exudation removes most slivers, whose near-singular Jacobians
+  // stall the FEM's Newton solve. The sliver perturber is off: with it, meshes of the same input
+  // differed far more (box test, 425 vs 417 tets).
   CGAL::Random random(config.seed);
   CGAL::get_default_random() = CGAL::Random(config.seed);
   Domain domain(polyhedron, &random);

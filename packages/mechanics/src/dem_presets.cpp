@@ -24,4 +24,16 @@ DemConfig parametricDemConfig(DemConfig config) {
   return config;
 }
 
+DemConfig withGridChoice(DemConfig config, const DemGridChoice& choice) {
+  if (choice.cell) config.grid_cell = *choice.cell;
+  if (choice.spacings) config.grid_spacings = *choice.spacings;
+  if (choice.body_cells) {
+    config.grid_body_cells = *choice.body_cells;
+    if (!choice.spacings) config.grid_spacings = 0.0;  // the body, not the particles, sizes the cells
+  }
+  if (choice.adam_iterations) config.adam_iterations = *choice.adam_iterations;
+  else if (choice.cell || choice.spacings || choice.body_cells) config.adam_iterations = 0;
+  return config;
+}
+
 }  // namespace demnerf::mechanics

@@ -10,6 +10,7 @@
 #include <numeric>
 
 #include "demnerf/core/error.hpp"
+#include "demnerf/mechanics/bspline_extension.hpp"
 
 namespace demnerf::mechanics {
 namespace {
@@ -294,20 +295,70 @@ class ShiftedCholesky {
 
 }  // namespace
 
+// The Newton unknowns: every active node's coefficients, or (GridNewtonConfig::extension_fill)
+// only the kept nodes', the others extrapolated (c = E r).
+class Unknowns {
+ public:
+  Unknowns(const GridFieldProblem& problem, const BsplineGrid& grid, const std::vector<long>& active, double fill) {
+    if (!(fill > 0)) return;
+    std::vector<double> cell_fill(static_cast<std::size_t>(grid.cells().cast<long>().prod()), 0.0);
+    const double cell_volume = std::pow(grid.cell(), 3);
+    for (std::size_t q = 0; q < problem.points.size(); ++q)
+      cell_fill[grid.cellIndex(problem.points[q])] += problem.volume[q] / cell_volume;
+    const BsplineExtension ext = extendOuterNodes(grid, active, cell_fill, fill);
+    std::vector<Eigen::Triplet<double>> entries;
+    for (int k = 0; k < ext.map.outerSize(); ++k)
+      for (Eigen::SparseMatrix<double>::InnerIterator it(ext.map, k); it; ++it)
+        for (int i = 0; i < 3; ++i)
+          entries.emplace_back(3 * static_cast<int>(it.row()) + i, 3 * static_cast<int>(it.col()) + i, it.value());
+    map_.resize(3 * ext.map.rows(), 3 * ext.map.cols());
+    map_.setFromTriplets(entries.begin(), entries.end());
+    kept_ = ext.kept;
+    extended_ = true;
+  }
+  bool extended() const { return extended_; }
+  Eigen::VectorXd full(const Eigen::VectorXd& r) const { return extended_ ? Eigen::VectorXd(map_ * r) : r; }
+  /// The unknowns of full coefficients: the kept nodes' values.
+  Eigen::VectorXd reduce(const Eigen::VectorXd& c) const {
+    if (!extended_) return c;
+    Eigen::VectorXd r(map_.cols());
+    for (std::size_t k = 0; k < kept_.size(); ++k) r.segment<3>(3 * k) = c.segment<3>(3 * kept_[k]);
+    return r;
+  }
+  /// Gradient and Hessian (lower triangle) in the unknowns.
+  void project(Eigen::VectorXd& gradient, Eigen::SparseMatrix<double>& hessian) const {
+    if (!extended_) return;
+    gradient = map_.transpose() * gradient;
+    const Eigen::SparseMatrix<double> symmetric = hessian.selfadjointView<Eigen::Lower>();
+    const Eigen::SparseMatrix<double> reduced = map_.transpose() * symmetric * map_;
+    hessian = reduced.triangularView<Eigen::Lower>();
+  }
+
+ private:
+  bool extended_ = false;
+  std::vector<long> kept_;           // positions in the active list of the kept nodes
+  Eigen::SparseMatrix<double> map_;  // 3 x active nodes by 3 x kept nodes
+};
+
 GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const HyperelasticMaterial& material,
                                     const BsplineGrid& grid, Eigen::MatrixXd& C, const GridNewtonConfig& config) {
   if (C.rows() != grid.nodeCount() || C.cols() != 3)
     throw core::Error("grid field coefficients must be nodeCount x 3");
   const GridFieldEnergy energy(problem, material, grid);
   const auto& active = energy.activeNodes();
+  const Unknowns unknowns(problem, grid, active, config.extension_fill);
   Eigen::VectorXd c(energy.unknowns());
   for (std::size_t l = 0; l < active.size(); ++l) c.segment<3>(3 * l) = C.row(active[l]).transpose();
+  // With the extension the start is projected onto the extended basis (outer nodes extrapolated).
+  Eigen::VectorXd r = unknowns.reduce(c);
+  c = unknowns.full(r);
   GridNewtonOutcome out;
   double strain = 0.0;
   double current = energy.energy(c, &strain, &out.min_J);
   if (!std::isfinite(current)) {
     // An inadmissible start (a larger load than the coefficients were solved for): the grid's
     // share off is admissible whenever u_0 is.
+    r.setZero();
     c.setZero();
     current = energy.energy(c, &strain, &out.min_J);
     if (!std::isfinite(current)) {
@@ -328,6 +379,7 @@ GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const Hyper
   for (int it = 0;; ++it) {
     auto start = std::chrono::steady_clock::now();
     energy.derivatives(c, gradient, hessian);
+    unknowns.project(gradient, hessian);
     out.assembly_seconds += secondsSince(start);
     if (it == 0) load = std::max(load, gradient.norm());
     out.residual = load > 0 ? gradient.norm() / load : 0.0;
@@ -353,10 +405,12 @@ GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const Hyper
     // of the energy): the full step is taken on the residual's word, if it stays admissible.
     if (decrement <= config.tolerance * std::max(std::abs(current), strain)) {
       double trial_strain = 0.0, trial_J = 0.0;
-      const Eigen::VectorXd trial = c + step;
-      const double e = energy.energy(trial, &trial_strain, &trial_J);
+      const Eigen::VectorXd trial = r + step;
+      const Eigen::VectorXd trial_c = unknowns.full(trial);
+      const double e = energy.energy(trial_c, &trial_strain, &trial_J);
       if (!std::isfinite(e) || ++rounding_steps > 3) break;
-      c = trial;
+      r = trial;
+      c = trial_c;
       current = e;
       strain = trial_strain;
       out.min_J = trial_J;
@@ -367,11 +421,13 @@ GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const Hyper
     bool moved = false;
     start = std::chrono::steady_clock::now();
     for (double alpha = 1.0; alpha > 1e-6; alpha *= 0.5) {
-      const Eigen::VectorXd trial = c + alpha * step;
+      const Eigen::VectorXd trial = r + alpha * step;
+      const Eigen::VectorXd trial_c = unknowns.full(trial);
       double trial_strain = 0.0, trial_J = 0.0;
-      const double e = energy.energy(trial, &trial_strain, &trial_J);
+      const double e = energy.energy(trial_c, &trial_strain, &trial_J);
       if (std::isfinite(e) && e <= current - 1e-4 * alpha * decrement) {
-        c = trial;
+        r = trial;
+        c = trial_c;
         current = e;
         strain = trial_strain;
         out.min_J = trial_J;

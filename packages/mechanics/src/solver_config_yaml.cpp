@@ -162,6 +162,8 @@ std::vector<Field> demFields(DemConfig& c) {
               "times a cut cell is split 2x2x2 before moment fitting (cells quadrature)"),
       number(s, "grid_body_cells", c.grid_body_cells, 0, false, kInf,
              "cells the body's volume holds, sizing the grid (0: from grid_cell or grid_spacings)"),
+      number(s, "grid_extension_fill", c.grid_extension_fill, 0, false, 1,
+             "nodes touching no cell filled this much are extrapolated (extended B-splines; 0: off)"),
       integer(s, "load_steps", c.load_steps, 0, many, "load steps (0: the scenario's, 1 with the grid)"),
       flag(s, "jitter", c.jitter, "particles near fixtures/loads move within their cell every Adam step"),
       number(s, "jitter_band", c.jitter_band, 0, false, kInf, "cells from a fixture that are jittered"),

@@ -10,8 +10,13 @@
 #include <malloc.h>
 
 #include <Eigen/Core>
+#include <algorithm>
+#include <limits>
 #include <string>
+#include <thread>
 #include <vector>
+
+#include "demnerf/core/ply.hpp"
 
 #include "demnerf/mechanics/material.hpp"
 
@@ -73,12 +78,53 @@ inline void restore(const std::vector<Tensor>& parameters, const std::vector<Ten
   for (std::size_t i = 0; i < parameters.size(); ++i) parameters[i].copy_(saved[i]);
 }
 
+/// Von Mises stress per point from displacement gradients [n, i, k] (NaN where det F <= 0).
+inline std::vector<double> vonMisesFromGradients(const Tensor& grad_u, const HyperelasticMaterial& material) {
+  const Tensor gu = grad_u.to(torch::kFloat64).contiguous();
+  const double* g = gu.data_ptr<double>();
+  std::vector<double> out(static_cast<std::size_t>(gu.size(0)));
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    Eigen::Matrix3d F = Eigen::Matrix3d::Identity();
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) F(a, b) += g[9 * i + 3 * a + b];
+    out[i] = F.determinant() > 0 ? vonMises(cauchyStress(F, material.stress(F)))
+                                 : std::numeric_limits<double>::quiet_NaN();
+  }
+  return out;
+}
+
+/// The particles' bounding box as the networks see it: the centre, the half extents (never 0, so
+/// a flat cloud still normalises) and the largest extent, the body's length scale.
+struct BodyBox {
+  Eigen::Vector3d center, half;
+  double length = 1.0;
+};
+inline BodyBox bodyBox(const core::ParticleCloud& cloud) {
+  Eigen::Vector3d lo = cloud.positions[0], hi = lo;
+  for (const auto& p : cloud.positions) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  return {0.5 * (lo + hi), (0.5 * (hi - lo)).cwiseMax(1e-9 * (hi - lo).norm() + 1e-12), (hi - lo).maxCoeff()};
+}
+
 /// Torch's CPU matmuls go to the system BLAS (OpenBLAS on Debian), whose own thread pool ignores
 /// at::set_num_threads; its spinning workers made a T-bar step 1.8x slower on a loaded 2-core
 /// machine. Set through dlsym so a build against another BLAS still links.
 inline void setBlasThreads(int threads) {
   using SetThreads = void (*)(int);
   if (auto f = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) f(threads);
+}
+
+/// Torch and BLAS threads for a solve: `threads` when > 0, else one thread below 50k particles
+/// (fastest for product-size clouds on shared 2-core machines, notes/dem_speed.md) and every core
+/// above, where the threads' synchronisation pays off.
+inline void setSolverThreads(int threads, std::size_t particles) {
+  const int n = threads > 0 ? threads
+                : particles < 50000 ? 1
+                                    : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  at::set_num_threads(n);
+  setBlasThreads(n);
 }
 
 /// Every Adam step allocates and frees the same few-MB tensors; glibc serves blocks above its

@@ -1,5 +1,7 @@
 #include "nodes/dem/dem_node_config.hpp"
 
+#include <type_traits>
+
 #include "demnerf/mechanics/solver_config_yaml.hpp"
 #include "ros_params/parameters.hpp"
 
@@ -16,15 +18,18 @@ demnerf::mechanics::SimulateOptions readSolverOptions(const Node& node, const De
     throw Error("parameter ~dem_method must be grid or mlp, got '" + config.dem_method + "'");
   demnerf::mechanics::SimulateOptions options = demnerf::mechanics::solverDefaults(config.dem_method, config.solver_config);
   demnerf::mechanics::DemConfig& dem = options.dem;
-  readCount(node, "dem_iterations", dem.adam_iterations, 0);
-  readNumber(node, "dem_grid_cell", dem.grid_cell, 0.0);
-  readNumber(node, "dem_grid_spacings", dem.grid_spacings, 0.0);
-  readNumber(node, "dem_grid_body_cells", dem.grid_body_cells, 0.0);
-  if (node.hasParam("dem_grid_body_cells") && !node.hasParam("dem_grid_spacings")) dem.grid_spacings = 0.0;
-  // With the feature grid its Newton solve is the training: Adam only when asked for.
-  if ((node.hasParam("dem_grid_cell") || node.hasParam("dem_grid_spacings") || node.hasParam("dem_grid_body_cells")) &&
-      !node.hasParam("dem_iterations"))
-    dem.adam_iterations = 0;
+  demnerf::mechanics::DemGridChoice grid;
+  const auto given = [&](const char* name, auto& choice, auto value, auto minimum) {
+    if (!node.hasParam(name)) return;
+    if constexpr (std::is_same_v<decltype(value), int>) readCount(node, name, value, minimum);
+    else readNumber(node, name, value, minimum);
+    choice = value;
+  };
+  given("dem_iterations", grid.adam_iterations, dem.adam_iterations, 0);
+  given("dem_grid_cell", grid.cell, dem.grid_cell, 0.0);
+  given("dem_grid_spacings", grid.spacings, dem.grid_spacings, 0.0);
+  given("dem_grid_body_cells", grid.body_cells, dem.grid_body_cells, 0.0);
+  dem = demnerf::mechanics::withGridChoice(dem, grid);
   readCount(node, "threads", dem.threads, 0);
   options.pinn.threads = dem.threads;
   readCount(node, "fem_order", options.voxel.order, 1);

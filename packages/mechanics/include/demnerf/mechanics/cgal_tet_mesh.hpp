@@ -15,8 +15,8 @@ struct CgalMeshConfig {
   /// Largest distance between a surface facet and the input surface (m). 0: cell / 10.
   double facet_distance = 0.0;
   int order = 2;  ///< 1: TET4, 2: TET10 (straight edge midpoints, elevateToQuadratic)
-  /// Seed of CGAL's random generator (initial surface points): the same seed gives the same mesh
-  /// within one process; separate runs may differ by a few tetrahedra (see the .cpp).
+  /// Seed of CGAL's random generator (initial surface points): the same seed gives nearly the same
+  /// mesh; calls may differ by a few tetrahedra (CGAL orders some containers by address, see the .cpp).
   int seed = 1;
 };
 

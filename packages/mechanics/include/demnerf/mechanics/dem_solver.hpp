@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -91,6 +92,10 @@ struct DemConfig {
   /// never finer than the particle spacing); 0: no grid unless grid_cell or grid_spacings asks.
   /// 600 gives the T-bar's 60 mm section 4 cells of 15 mm (docs/dem_feature_grid.md).
   double grid_body_cells = 0.0;
+  /// Extended B-splines (bspline_extension.hpp): grid nodes whose support holds no cell the
+  /// quadrature fills to this share are extrapolated from a filled cell nearby instead of being
+  /// unknowns, which removes the near-singular slivers of cut cells (0: off).
+  double grid_extension_fill = 0.0;
   /// Load steps (0: the scenario's, or 1 with the feature grid: Newton with its line search takes
   /// the T-bar twist in one, 4 s, where the scenario's 4 steps take 9 s; a failed step is halved).
   int load_steps = 0;
@@ -143,6 +148,18 @@ DemConfig paperDemConfig();
 /// `config` in parametric mode over its load_range: the MLP alone (the feature grid does not take
 /// the load as an input), trained by Adam (paperDemConfig()'s iterations when config has none).
 DemConfig parametricDemConfig(DemConfig config);
+
+/// The feature-grid settings a user gave (`demnerf simulate` flags, dem_node parameters); absent
+/// ones keep the config's values.
+struct DemGridChoice {
+  std::optional<double> cell, spacings, body_cells;
+  std::optional<int> adam_iterations;
+};
+
+/// `config` with the user's grid choice, by the rules both front ends share: grid_body_cells given
+/// without grid_spacings sizes the cells from the body (grid_spacings 0); any grid setting given
+/// without adam_iterations means no Adam (the grid's Newton solve is the training).
+DemConfig withGridChoice(DemConfig config, const DemGridChoice& choice);
 
 struct DemReport {
   double seconds = 0.0;

@@ -45,6 +45,10 @@ struct GridNewtonConfig {
   /// Diagonal shift relative to the mean diagonal when the Hessian is not positive definite
   /// (far from the minimum of the nonconvex energy), multiplied by 10 until it is.
   double initial_shift = 1e-6;
+  /// Extended B-splines (bspline_extension.hpp): nodes whose support holds no grid cell filled to
+  /// at least this share by the quadrature are extrapolated from a nearby filled cell instead of
+  /// being unknowns (0: every node the quadrature sees is an unknown).
+  double extension_fill = 0.0;
   /// Called after each assembly with the iteration, the energy and the relative residual; it may
   /// throw (a time limit, a cancel): C then holds the last accepted coefficients.
   std::function<void(int iteration, double energy, double residual)> on_iteration;

@@ -1,0 +1,19 @@
+#pragma once
+// The DEM's settings checked against a particle cloud before anything is built. Private to
+// packages/mechanics/src (no torch here).
+
+#include "demnerf/core/ply.hpp"
+#include "demnerf/mechanics/dem_solver.hpp"
+
+namespace demnerf::mechanics {
+
+/// The spacing of the interior particles: the cube root of the 90th percentile of the particle
+/// volumes (0 without volumes).
+double interiorParticleSpacing(const core::ParticleCloud& cloud);
+
+/// `config` with grid_cell resolved from grid_spacings or grid_body_cells; core::Error naming the
+/// setting and a value that works when a setting is out of range or the grid does not suit the
+/// particles.
+DemConfig resolvedDemConfig(DemConfig config, const core::ParticleCloud& cloud);
+
+}  // namespace demnerf::mechanics

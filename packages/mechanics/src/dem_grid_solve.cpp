@@ -1,0 +1,166 @@
+// The DEM's feature grid: its quadrature (the particles, or Gauss points in the grid's cells), its
+// Newton solve with the MLP frozen (grid_field_newton.hpp), and the checks an answer must pass
+// before solve() reports it.
+#include <torch/torch.h>
+
+#include <cmath>
+#include <iostream>
+#include <sstream>
+
+#include "demnerf/mechanics/boundary_conditions.hpp"
+#include "demnerf/mechanics/cell_quadrature.hpp"
+#include "demnerf/mechanics/particle_quadrature.hpp"
+#include "dem_solver_impl.hpp"
+
+namespace demnerf::mechanics {
+
+using torch::Tensor;
+using torch_support::toTensor;
+
+// The grid Newton's quadrature: the particles' own volumes (midpoint rule) with a small share on
+// the surface particles (DemConfig::grid_surface_share), interior particles near a fixture or
+// load split into 2 x 2 x 2 sub-points of their cube (Newton has no jitter to catch a ramp
+// between a region and the first particle layer).
+void DemSolver::Impl::buildGridQuadrature() {
+  if (config.grid_quadrature == DemConfig::GridQuadrature::kCells) {
+    CellQuadratureConfig cq;
+    cq.points_per_axis = config.grid_gauss_points;
+    cq.boundary_levels = config.grid_boundary_levels;
+    CellQuadrature q = cellQuadrature(cloud, *grid, cq);
+    gq_points = std::move(q.points);
+    gq_volume = std::move(q.weights);
+  } else {
+    buildParticleGridQuadrature();
+  }
+  gq_lift = dirichletLift(scenario, gq_points, length);
+  gq_x = toTensor(gq_points, dtype);
+  gq_lift_t[0] = toTensor(gq_lift.g, dtype);
+  gq_lift_t[1] = toTensor(gq_lift.grad_g, dtype);
+  gq_lift_t[2] = toTensor(gq_lift.D, dtype);
+  gq_lift_t[3] = toTensor(gq_lift.grad_D, dtype);
+}
+
+void DemSolver::Impl::buildParticleGridQuadrature() {
+  // (1 - f) volumes + f energyWeights: both sum to the body's volume, so a homogeneous state
+  // keeps its exact energy.
+  const double f = config.grid_surface_share;
+  std::vector<double> weight = cloud.volumes;
+  if (f > 0) {
+    const std::vector<double> shared = energyWeights(cloud);
+    for (std::size_t i = 0; i < weight.size(); ++i) weight[i] = (1 - f) * weight[i] + f * shared[i];
+  }
+  gq_points.clear();
+  gq_volume.clear();
+  const double band = config.grid_refine_band * config.grid_cell;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    if (!(weight[i] > 0)) continue;
+    const Eigen::Vector3d& x = cloud.positions[i];
+    const double half = 0.5 * std::cbrt(cloud.volumes[i]);
+    // Near a region's boundary: within the band outside it, or a cube that reaches out of it
+    // (deep inside a fixture the field is prescribed: no ramp to catch).
+    const auto near = [&](const core::Region& region) {
+      for (int c = 0; c < 8; ++c)
+        if (!region.contains(x + half * Eigen::Vector3d(c & 1 ? 1 : -1, c & 2 ? 1 : -1, c & 4 ? 1 : -1)))
+          return regionDistance(region, x) <= band;
+      return false;
+    };
+    bool split = false;
+    for (const core::Fixture& f : scenario.fixtures) split = split || near(f.region);
+    for (const core::Load& l : scenario.loads) split = split || near(l.region);
+    if (cloud.volumes[i] > 0 && !cloud.isSurface(i) && split) {
+      const double quarter = 0.5 * half;
+      for (int c = 0; c < 8; ++c) {
+        gq_points.push_back(x + quarter * Eigen::Vector3d(c & 1 ? 1 : -1, c & 2 ? 1 : -1, c & 4 ? 1 : -1));
+        gq_volume.push_back(weight[i] / 8);
+      }
+    } else {
+      gq_points.push_back(x);
+      gq_volume.push_back(weight[i]);
+    }
+  }
+}
+
+// Newton on the feature grid's coefficients with the MLP frozen (grid_field_newton.hpp), on the
+// grid quadrature: the best field in MLP + grid with the MLP's share fixed.
+// False when Newton does not converge within grid_newton_iterations (the load step then counts as
+// failed and is halved).
+bool DemSolver::Impl::solveGrid(double scale, int& iterations) {
+  torch::NoGradGuard guard;
+  GridFieldProblem pb;
+  pb.points = gq_points;
+  pb.volume = gq_volume;
+  pb.D = gq_lift.D;
+  pb.grad_D = gq_lift.grad_D;
+  for (double v : gq_volume) pb.body.push_back(scale * v * scenario.body_force);
+  // Offset: everything but the grid (the lift and the MLP's share).
+  const auto [u0, gu0] = displacement(gq_x, gq_lift_t, true, scale, nullptr, false);
+  pb.offset = torch_support::toVectors(u0);
+  const Tensor g = gu0.to(torch::kFloat64).contiguous();
+  const double* pg = g.data_ptr<double>();
+  pb.grad_offset.resize(gq_points.size());
+  for (std::size_t p = 0; p < gq_points.size(); ++p)
+    pb.grad_offset[p] = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(pg + 9 * p);
+  if (xs.size(0) > 0) {
+    pb.surface_points = torch_support::toVectors(xs);
+    pb.surface_offset = torch_support::toVectors(displacement(xs, lift_s, false, scale, nullptr, false).first);
+    pb.surface_D = torch_support::toVectors(lift_s[2]);
+    pb.surface_force = torch_support::toVectors(traction_area * scale);
+  }
+  // The Newton unknowns are in metres: c C.
+  Eigen::MatrixXd C = toEigen(grid_coef.detach()) * out_scale;
+  GridNewtonConfig newton;
+  newton.max_iterations = config.grid_newton_iterations;
+  newton.extension_fill = config.grid_extension_fill;
+  const int before = iterations;
+  newton.on_iteration = [&](int it, double energy, double residual) {
+    tick("newton", scale, before + it, energy, residual);
+  };
+  GridNewtonOutcome outcome;
+  try {
+    outcome = minimiseGridField(pb, *material, *grid, C, newton);
+  } catch (...) {
+    setGridCoefficients(C / out_scale);
+    throw;
+  }
+  iterations += outcome.iterations;
+  last_grid = outcome;
+  setGridCoefficients(C / out_scale);
+  if (config.verbose)
+    std::cerr << "dem: grid Newton " << outcome.iterations << " its, energy " << outcome.energy << ", min J "
+              << outcome.min_J << ", residual " << outcome.residual << (outcome.converged ? "" : " (not converged)")
+              << "; assembly "
+              << outcome.assembly_seconds << " s, factorisation " << outcome.factorisation_seconds
+              << " s, line search " << outcome.line_search_seconds << " s\n";
+  return outcome.converged;
+}
+
+std::string DemSolver::Impl::gridFailureAdvice() const {
+  std::ostringstream text;
+  text << "The feature grid's Newton solve (cells of " << config.grid_cell << " m) did not reach an equilibrium"
+       << (last_grid.min_J > 0 ? "" : " or inverted the material") << " (last residual " << last_grid.residual
+       << ", smallest det F " << last_grid.min_J
+       << "). Likely causes: a load too large for the material (try a smaller load or more load_steps), a fixture "
+          "that holds too little of the body, or a grid too coarse for the body's thinnest part (raise "
+          "grid_body_cells or lower grid_cell); grid_newton_iterations raises the iteration cap.";
+  return text.str();
+}
+
+// The equilibrium checks an answer must pass before solve() reports success: the grid Newton's
+// first-order condition, and a potential energy no higher than the undeformed state's (0 J when
+// no fixture prescribes a displacement: any minimiser does at least as well as u = 0).
+void DemSolver::Impl::checkAnswer(const DemReport& report) const {
+  if (grid && !(last_grid.converged && report.residual <= 10 * GridNewtonConfig{}.residual_tolerance))
+    throw SolveError(SolveFailure::kNotConverged,
+                     "DEM: the answer is not an equilibrium (relative residual " + std::to_string(report.residual) +
+                         "); " + gridFailureAdvice());
+  bool prescribed = false;
+  for (const core::Fixture& f : scenario.fixtures) prescribed = prescribed || f.displacement.norm() > 0;
+  const double slack = 1e-9 * energy_scale + 1e-12;
+  if (!prescribed && !(report.energy <= slack))
+    throw SolveError(SolveFailure::kNotConverged,
+                     "DEM: the answer's potential energy " + std::to_string(report.energy) +
+                         " J is above the undeformed state's 0 J, so it is no minimum under these dead loads; " +
+                         (grid ? gridFailureAdvice() : std::string("train longer (adam_iterations) or use the feature grid")));
+}
+
+}  // namespace demnerf::mechanics

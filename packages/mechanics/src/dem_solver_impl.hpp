@@ -1,0 +1,129 @@
+#pragma once
+// DemSolver's state and parts, private to packages/mechanics/src. The DEM's pieces live in their
+// own translation units around this one struct:
+//   dem_field.cpp      the displacement u = s g + D (z_MLP + z_grid) and its gradient
+//   dem_energy.cpp     the potential energy on the particles (jittered near fixtures) and the
+//                      output-amplitude line search
+//   dem_grid_solve.cpp the feature grid's quadrature, its Newton solve and the equilibrium checks
+//   dem_training.cpp   one load step: output-layer Newton, Adam, L-BFGS polish; parametric training
+//   dem_solver.cpp     the public DemSolver: validation, particle sets, load stepping, answers
+
+#include <Eigen/Core>
+#include <functional>
+#include <memory>
+#include <random>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "demnerf/mechanics/bspline_grid.hpp"
+#include "demnerf/mechanics/dem_solver.hpp"
+#include "demnerf/mechanics/dirichlet_lift.hpp"
+#include "demnerf/mechanics/grid_field_newton.hpp"
+#include "demnerf/mechanics/material.hpp"
+#include "displacement_mlp.hpp"
+#include "torch_solver_support.hpp"
+
+namespace demnerf::mechanics {
+
+struct DemSolver::Impl {
+  using Tensor = torch::Tensor;
+
+  core::ParticleCloud cloud;
+  core::Scenario scenario;
+  DemConfig config;
+  std::unique_ptr<HyperelasticMaterial> material;
+  torch::Dtype dtype = torch::kFloat64;
+  double length = 1.0, out_scale = 1.0, energy_scale = 1.0;
+  DisplacementMlp net;
+  // Particle subsets: volume particles (energy, body force), surface particles (traction) and,
+  // in penalty mode, constrained particles. The volume particles are ordered fixed-first: the last
+  // n_band of them lie near a fixture and are jittered during Adam.
+  Tensor xv, vol, body, lift_v[4];
+  long n_band = 0;
+  std::vector<Eigen::Vector3d> band_points;  // nominal positions of the band particles
+  std::vector<double> band_jitter;           // half cell size of each (0: not jittered)
+  mutable std::mt19937 rng{1};
+  Tensor xs, traction_area, lift_s[4];
+  Tensor xc, fixed_value, fixed_mask;
+  Tensor eye3;
+  double fraction = 0.0;          // load fraction the network currently represents
+  double load_input_scale = 1.0;  // parametric: largest |load fraction| of the trained range
+  bool rescaled = false;          // the output amplitude was fitted (first solve only)
+  std::function<void(int)> progress;
+  int progress_every = 0;
+  // The caller's budget and listeners (setControl), the running solve's clock, the load fraction
+  // of the last good state and the last grid Newton's outcome (energy and residual of the answer).
+  SolveControl control;
+  std::unique_ptr<SolveClock> clock;
+  double done_fraction = 0.0;
+  GridNewtonOutcome last_grid;
+
+  // Feature grid (DemConfig::grid_cell): the basis, its coefficients (a parameter, in units of the
+  // output scale like the MLP's output) and the supports of the fixed point sets.
+  struct GridSupport {
+    Tensor nodes, N, dN;  // [n, S] node indices, [n, S] values, [n, S, 3] X-gradients
+  };
+  std::unique_ptr<BsplineGrid> grid;
+  Tensor grid_coef;
+  GridSupport grid_v, grid_s;
+  // The grid Newton's fixed quadrature (particles near fixtures split, DemConfig::grid_refine_band).
+  std::vector<Eigen::Vector3d> gq_points;
+  std::vector<double> gq_volume;
+  DirichletLift gq_lift;
+  Tensor gq_x, gq_lift_t[4];
+
+  // dem_field.cpp
+  std::vector<Tensor> parameters() const;
+  GridSupport gridSupport(const std::vector<Eigen::Vector3d>& points) const;
+  GridSupport gridSupport(const Tensor& x) const { return gridSupport(torch_support::toVectors(x)); }
+  std::pair<Tensor, Tensor> gridField(const GridSupport& support, bool gradient) const;
+  void setGridCoefficients(const Eigen::MatrixXd& C);
+  DisplacementMlp::Output hidden(const Tensor& x, bool jacobian, double scale) const;
+  std::pair<Tensor, Tensor> displacement(const Tensor& x, const Tensor* lift, bool gradient, double scale,
+                                         const GridSupport* support = nullptr, bool with_grid = true) const;
+  void basisAt(const Tensor& x, double scale, Eigen::MatrixXd& h, Eigen::MatrixXd* dh) const;
+  double maxDisplacement(double scale) const;
+  void checkLoadScale(double load_scale) const;
+
+  // dem_energy.cpp
+  Tensor loss(double scale, double* energy, double* min_J, bool jitter = false) const;
+  double energyWithAmplitude(double scale, double alpha);
+  void rescaleOutput(double scale);
+  std::vector<Tensor> snapshot() const { return torch_support::snapshot(parameters()); }
+  void restore(const std::vector<Tensor>& s) { torch_support::restore(parameters(), s); }
+
+  // dem_grid_solve.cpp
+  void buildGridQuadrature();
+  bool solveGrid(double scale, int& iterations);
+  std::string gridFailureAdvice() const;
+  void checkAnswer(const DemReport& report) const;
+
+  // dem_solver.cpp
+  struct LoadSizes {
+    double volume, max_traction, max_prescribed;  // m^3, Pa, m: the a-priori scales' inputs
+  };
+  LoadSizes setParticleSets();
+
+  // dem_training.cpp
+  std::string keptState() const;
+  void tick(const char* phase, double scale, int iterations, double energy, double residual);
+  void reportProgress(int iterations) const;
+  bool newtonEnabled() const;
+  void solveOutputLayer(double scale);
+  bool train(double scale, int& iterations, DemReport& report);
+  bool trainParametric(int& iterations);
+
+ private:
+  // The parts of the above (same files).
+  void jitterBand(Tensor& x, Tensor (&lift)[4]) const;
+  void orderBandLast(std::vector<long>& volume_particles);
+  void buildParticleGridQuadrature();
+  bool runAdam(double scale, int& iterations);
+  void polishWithLbfgs(double scale, int& iterations, DemReport& report);
+};
+
+/// Row-major tensor (rows x cols) -> Eigen, in double.
+Eigen::MatrixXd toEigen(const torch::Tensor& t);
+
+}  // namespace demnerf::mechanics

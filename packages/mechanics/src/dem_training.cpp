@@ -1,0 +1,208 @@
+// One DEM load step (output-layer Newton, feature-grid Newton, Adam, L-BFGS polish with its
+// exploit guard), parametric training over a load range, and the progress of a running solve.
+#include <torch/torch.h>
+
+#include <cmath>
+#include <iostream>
+#include <limits>
+#include <sstream>
+
+#include "network_optimisers.hpp"
+#include "dem_solver_impl.hpp"
+#include "demnerf/mechanics/output_layer_newton.hpp"
+
+namespace demnerf::mechanics {
+
+using torch::Tensor;
+
+std::string DemSolver::Impl::keptState() const {
+  std::ostringstream text;
+  text << "the state at load fraction " << done_fraction;
+  return text.str();
+}
+
+// Progress and the stop checks of a running solve (a no-op outside solve()).
+void DemSolver::Impl::tick(const char* phase, double scale, int iterations, double energy, double residual) {
+  if (!clock) return;
+  SolveProgress p;
+  p.phase = phase;
+  p.load_fraction = scale;
+  p.iteration = iterations;
+  p.energy = energy;
+  p.residual = residual;
+  clock->report(p);
+  clock->check(keptState());
+}
+
+void DemSolver::Impl::reportProgress(int iterations) const {
+  if (progress && progress_every > 0 && iterations % progress_every == 0) progress(iterations);
+}
+
+bool DemSolver::Impl::newtonEnabled() const {
+  return config.output_newton && config.boundary == DemConfig::Boundary::kExact && !config.parametric;
+}
+
+// Newton on the output layer with the hidden layers frozen (output_layer_newton.hpp): the best
+// field in the network's current basis, at the nominal quadrature points. The output scale is
+// kept (rescaling the weights to O(1) made Adam's next steps invert particles on the T-bar).
+void DemSolver::Impl::solveOutputLayer(double scale) {
+  torch::NoGradGuard guard;
+  OutputLayerProblem pb;
+  basisAt(xv, scale, pb.h, &pb.dh);
+  const long n = xv.size(0), m = pb.h.cols();
+  pb.g = toEigen(lift_v[0]);
+  pb.D = toEigen(lift_v[2]);
+  pb.grad_g = toEigen(lift_v[1].reshape({n, 9}));
+  pb.grad_D = toEigen(lift_v[3].reshape({n, 9}));
+  pb.volume = toEigen(vol.unsqueeze(1)).col(0);
+  pb.body = toEigen(body);
+  if (xs.size(0) > 0) {
+    basisAt(xs, scale, pb.surface_h, nullptr);
+    pb.surface_g = toEigen(lift_s[0]);
+    pb.surface_D = toEigen(lift_s[2]);
+    pb.traction_area = toEigen(traction_area);
+  } else {
+    pb.surface_h.resize(0, m);
+    pb.surface_g.resize(0, 3);
+    pb.surface_D.resize(0, 3);
+    pb.traction_area.resize(0, 3);
+  }
+  pb.output_scale = out_scale;
+  pb.load_scale = scale;
+  Eigen::MatrixXd W(3, m);
+  W.leftCols(m - 1) = toEigen(net.weights().back());
+  W.col(m - 1) = toEigen(net.biases().back().unsqueeze(1)).col(0);
+  OutputLayerNewtonConfig newton;
+  newton.max_iterations = config.newton_iterations;
+  const OutputLayerNewtonOutcome outcome = minimiseOutputLayer(pb, *material, W, newton);
+  const Tensor w = torch::from_blob(W.data(), {m, 3}, torch::kFloat64).t().to(dtype);  // column-major W
+  net.weights().back().copy_(w.narrow(1, 0, m - 1));
+  net.biases().back().copy_(w.select(1, m - 1));
+  if (config.verbose)
+    std::cerr << "dem: output-layer Newton " << outcome.iterations << " its, energy " << outcome.energy
+              << (outcome.converged ? "" : " (not converged)") << ", output scale " << out_scale << " m\n";
+}
+
+// Parametric mode: one Adam run over the whole load range. Each step draws
+// parametric_samples load fractions (stratified over the range) and minimises the sum of their
+// potential energies, each divided by its own scale (energy grows with the load squared), so
+// small and large loads are learnt alike. False when a sample inverts particles or turns NaN.
+bool DemSolver::Impl::trainParametric(int& iterations) {
+  const double lo = config.load_range_min, hi = config.load_range_max;
+  const double floor = 0.05 * load_input_scale;  // keeps samples near 0 from dominating
+  const int k = std::max(1, config.parametric_samples);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  fraction = 1.0;  // what predict() shows from a progress callback
+  const int n = std::max(1, config.adam_iterations);
+  DecayingAdam adam(parameters(), config.adam_learning_rate, config.adam_final_rate_ratio, n);
+  for (int it = 0; it < n; ++it) {
+    adam.zeroGrad();
+    Tensor total;
+    for (int j = 0; j < k; ++j) {
+      const double s = lo + (hi - lo) * (j + u01(rng)) / k;
+      double jmin = 0;
+      Tensor l = loss(s, nullptr, &jmin, config.jitter) / (s * s + floor * floor);
+      if (!std::isfinite(l.item<double>()) || !(jmin > 0)) return false;
+      if (j == 0) tick("adam", s, iterations, l.item<double>() * energy_scale * (s * s + floor * floor),
+                       std::numeric_limits<double>::quiet_NaN());
+      total = j == 0 ? l : total + l;
+    }
+    (total / k).backward();
+    adam.step();
+    reportProgress(++iterations);
+  }
+  // The trained field must be admissible over the whole range, not only at the samples drawn.
+  torch::NoGradGuard guard;
+  for (int j = 0; j <= 8; ++j) {
+    double jmin = 0;
+    const Tensor l = loss(lo + (hi - lo) * j / 8.0, nullptr, &jmin);
+    if (!std::isfinite(l.item<double>()) || !(jmin > 0)) return false;
+  }
+  return true;
+}
+
+// Trains at one load fraction; false when the loss turns NaN or a particle inverts.
+bool DemSolver::Impl::train(double scale, int& iterations, DemReport& report) {
+  fraction = scale;  // what predict() shows from a progress callback
+  const bool newton = newtonEnabled();
+  if (newton) solveOutputLayer(scale);
+  if (grid && !solveGrid(scale, iterations)) return false;
+  if (config.adam_iterations > 0) {
+    if (!runAdam(scale, iterations)) return false;
+    rescaled = true;
+  }
+  if (newton) solveOutputLayer(scale);
+  if (grid && config.adam_iterations > 0 && !solveGrid(scale, iterations)) return false;
+  if (config.lbfgs_iterations > 0) polishWithLbfgs(scale, iterations, report);
+  torch::NoGradGuard guard;
+  double jmin = 0;
+  const Tensor l = loss(scale, nullptr, &jmin);
+  for (const Tensor& p : parameters())
+    if (!torch::isfinite(p).all().item<bool>()) return false;
+  return std::isfinite(l.item<double>()) && jmin > 0;
+}
+
+// Adam over the particles (jittered near fixtures), with the amplitude refits of the first load
+// step and the periodic output-layer Newton; false when the loss turns NaN or a particle inverts.
+bool DemSolver::Impl::runAdam(double scale, int& iterations) {
+  const bool newton = newtonEnabled();
+  const int n = config.adam_iterations;
+  DecayingAdam adam(parameters(), config.adam_learning_rate, config.adam_final_rate_ratio, n);
+  for (int it = 0; it < n; ++it) {
+    if (!newton && !grid && !rescaled && config.rescale_every > 0 && it > 0 && it % config.rescale_every == 0 &&
+        it <= config.rescale_until && config.boundary == DemConfig::Boundary::kExact)
+      rescaleOutput(scale);
+    adam.zeroGrad();
+    double jmin = 0;
+    Tensor l = loss(scale, nullptr, &jmin, config.jitter);
+    const double value = l.item<double>();
+    if (!std::isfinite(value) || !(jmin > 0)) return false;
+    tick("adam", scale, iterations, value * energy_scale, std::numeric_limits<double>::quiet_NaN());
+    l.backward();
+    adam.step();
+    reportProgress(++iterations);
+    if (newton && config.newton_every > 0 && (it + 1) % config.newton_every == 0 && it + 1 < n)
+      solveOutputLayer(scale);
+  }
+  return true;
+}
+
+// L-BFGS on the fixed particles, undone (report.polish_rejected) when it lowers the energy or
+// grows the displacement far more than a legitimate polish does: the ramp exploit
+// (DemConfig::polish_max_energy_drop).
+void DemSolver::Impl::polishWithLbfgs(double scale, int& iterations, DemReport& report) {
+  const auto before = snapshot();
+  double e_before = 0;
+  {
+    torch::NoGradGuard guard;
+    loss(scale, &e_before, nullptr);
+  }
+  const double u_before = maxDisplacement(scale);
+  runLbfgs(parameters(), config.lbfgs_iterations, config.lbfgs_history, config.tolerance, [&] {
+    double jm = 0;
+    Tensor l = loss(scale, nullptr, &jm);
+    reportProgress(++iterations);
+    tick("lbfgs", scale, iterations, l.item<double>() * energy_scale, std::numeric_limits<double>::quiet_NaN());
+    return std::make_pair(l, std::isfinite(l.item<double>()) && jm > 0);
+  });
+  double e_after = 0, jm = 0;
+  {
+    torch::NoGradGuard guard;
+    loss(scale, &e_after, &jm);
+  }
+  const double u_after = maxDisplacement(scale);
+  const bool exploit = !std::isfinite(e_after) || !(jm > 0) ||
+                       e_after < e_before - config.polish_max_energy_drop * std::abs(e_before) ||
+                       u_after > config.polish_max_growth * u_before || u_after > length;
+  if (exploit) {
+    if (config.verbose)
+      std::cerr << "dem: L-BFGS polish rejected (energy " << e_before << " -> " << e_after << ", max |u| " << u_before
+                << " -> " << u_after << ")\n";
+    restore(before);
+    report.polish_rejected = true;
+  } else if (config.verbose) {
+    std::cerr << "dem: L-BFGS polish energy " << e_before << " -> " << e_after << "\n";
+  }
+}
+
+}  // namespace demnerf::mechanics

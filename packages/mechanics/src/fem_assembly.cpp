@@ -1,0 +1,372 @@
+// The FEM's discrete problem: per-element shape gradients and quadrature, the tangent's sparsity
+// pattern (nodes ordered, elements coloured for parallel assembly), consistent loads, and the
+// energy, residual and tangent at a state.
+#include <algorithm>
+#include <cmath>
+#include <thread>
+
+#include "demnerf/core/error.hpp"
+#include "demnerf/mechanics/boundary_conditions.hpp"
+#include "fem_solver_impl.hpp"
+#include "fill_reducing_order.hpp"
+
+namespace demnerf::mechanics {
+namespace {
+
+// Volume quadrature in barycentric coordinates (weights sum to 1): the centroid for linear
+// elements, the 4-point degree-2 rule for quadratic ones (enough for their stiffness).
+std::vector<std::pair<Eigen::Vector4d, double>> volumeRule(int order) {
+  if (order == 1) return {{Eigen::Vector4d::Constant(0.25), 1.0}};
+  const double a = 0.5854101966249685, b = 0.1381966011250105;
+  std::vector<std::pair<Eigen::Vector4d, double>> rule;
+  for (int i = 0; i < 4; ++i) {
+    Eigen::Vector4d L = Eigen::Vector4d::Constant(b);
+    L(i) = a;
+    rule.emplace_back(L, 0.25);
+  }
+  return rule;
+}
+
+// 6-point degree-4 triangle rule (Dunavant): exact for quadratic shape times linear traction.
+std::vector<std::pair<Eigen::Vector3d, double>> faceRule() {
+  std::vector<std::pair<Eigen::Vector3d, double>> rule;
+  const double a1 = 0.108103018168070, b1 = 0.445948490915965, w1 = 0.223381589678011;
+  const double a2 = 0.816847572980459, b2 = 0.091576213509771, w2 = 0.109951743655322;
+  for (int i = 0; i < 3; ++i) {
+    Eigen::Vector3d p1 = Eigen::Vector3d::Constant(b1), p2 = Eigen::Vector3d::Constant(b2);
+    p1(i) = a1;
+    p2(i) = a2;
+    rule.emplace_back(p1, w1);
+    rule.emplace_back(p2, w2);
+  }
+  return rule;
+}
+
+// Runs fn(begin, end) over [0, count) split into `threads` contiguous chunks.
+template <typename Fn>
+void parallelFor(int count, int threads, const Fn& fn) {
+  if (threads <= 1 || count < 2 * threads) {
+    fn(0, count);
+    return;
+  }
+  std::vector<std::thread> pool;
+  const int chunk = (count + threads - 1) / threads;
+  for (int t = 1; t < threads; ++t) {
+    const int begin = std::min(count, t * chunk), end = std::min(count, (t + 1) * chunk);
+    if (begin < end) pool.emplace_back([&fn, begin, end] { fn(begin, end); });
+  }
+  fn(0, std::min(count, chunk));
+  for (auto& t : pool) t.join();
+}
+
+}  // namespace
+
+void FemSolver::Impl::setup() {
+  scenario.validate("scenario '" + scenario.name + "'");
+  material = makeMaterial(scenario.material);
+  n = mesh.nodesPerElement();
+  if (mesh.elements.empty()) throw core::Error("the FEM mesh has no elements");
+  if (config.threads < 0) throw core::Error("FemConfig threads must be >= 0 (0: all cores), got " + std::to_string(config.threads));
+  threads = config.threads > 0 ? config.threads : std::max(1u, std::thread::hardware_concurrency());
+  const auto rule = volumeRule(mesh.order);
+  nq = static_cast<int>(rule.size());
+  const int ndof = 3 * static_cast<int>(mesh.nodes.size());
+  f_ext = Eigen::VectorXd::Zero(ndof);
+  dNdX.reserve(mesh.elements.size() * nq * n * 3);
+  for (int e = 0; e < static_cast<int>(mesh.elements.size()); ++e) {
+    for (int a = 0; a < n; ++a)
+      if (mesh.elements[e][a] < 0 || mesh.elements[e][a] >= static_cast<int>(mesh.nodes.size()))
+        throw core::Error("FEM element " + std::to_string(e) + " refers to a missing node");
+    double volume = 0;
+    const auto G = barycentricGradients(corners(e), &volume);
+    if (!(volume > 0.0))
+      throw core::Error("FEM element " + std::to_string(e) + " is inverted or degenerate (volume " + std::to_string(volume) + ")");
+    grad_l.push_back(G);
+    for (const auto& [L, w] : rule) {
+      const Eigen::MatrixXd D = tetShapeDerivatives(mesh.order, L) * G;
+      for (int a = 0; a < n; ++a)
+        for (int J = 0; J < 3; ++J) dNdX.push_back(D(a, J));
+      weight.push_back(w * volume);
+      const Eigen::VectorXd N = tetShape(mesh.order, L);
+      for (int a = 0; a < n; ++a) f_ext.segment<3>(3 * mesh.elements[e][a]) += N(a) * w * volume * scenario.body_force;
+    }
+  }
+  const Dirichlet fixed = resolveFixtures(scenario, mesh.nodes);
+  prescribed = Eigen::VectorXd::Zero(ndof);
+  free_index.assign(ndof, 0);
+  for (std::size_t k = 0; k < fixed.index.size(); ++k)
+    for (int c = 0; c < 3; ++c)
+      if (fixed.mask[k](c)) {
+        free_index[3 * fixed.index[k] + c] = -1;
+        prescribed(3 * fixed.index[k] + c) = fixed.value[k](c);
+      }
+  setupLoads();
+  setupPattern();
+  u = Eigen::VectorXd::Zero(ndof);
+  buildGrid();
+}
+
+void FemSolver::Impl::setupPattern() {
+  const int n_nodes = static_cast<int>(mesh.nodes.size());
+  const int n_el = static_cast<int>(mesh.elements.size());
+  // Node -> elements (CSR).
+  std::vector<int> start(n_nodes + 1, 0), list(static_cast<std::size_t>(n_el) * n);
+  for (const auto& el : mesh.elements)
+    for (int a = 0; a < n; ++a) ++start[el[a] + 1];
+  for (int i = 0; i < n_nodes; ++i) start[i + 1] += start[i];
+  {
+    std::vector<int> fill(start.begin(), start.end() - 1);
+    for (int e = 0; e < n_el; ++e)
+      for (int a = 0; a < n; ++a) list[fill[mesh.elements[e][a]]++] = e;
+  }
+  // Greedy colouring: an element takes the first colour none of its node neighbours has.
+  std::vector<int> colour(n_el, -1), stamp;
+  for (int e = 0; e < n_el; ++e) {
+    for (int a = 0; a < n; ++a) {
+      const int node = mesh.elements[e][a];
+      for (int k = start[node]; k < start[node + 1]; ++k) {
+        const int c = colour[list[k]];
+        if (c < 0) continue;
+        if (c >= static_cast<int>(stamp.size())) stamp.resize(c + 1, -1);
+        stamp[c] = e;
+      }
+    }
+    int c = 0;
+    while (c < static_cast<int>(stamp.size()) && stamp[c] == e) ++c;
+    colour[e] = c;
+    if (c >= static_cast<int>(colours.size())) colours.resize(c + 1);
+    colours[c].push_back(e);
+  }
+  // Node adjacency (CSR, sorted, self included).
+  std::vector<int> adj_start(n_nodes + 1, 0), adj;
+  {
+    std::vector<int> mark(n_nodes, -1), neighbours;
+    for (int node = 0; node < n_nodes; ++node) {
+      neighbours.clear();
+      for (int k = start[node]; k < start[node + 1]; ++k)
+        for (int a = 0; a < n; ++a) {
+          const int other = mesh.elements[list[k]][a];
+          if (mark[other] != node) {
+            mark[other] = node;
+            neighbours.push_back(other);
+          }
+        }
+      std::sort(neighbours.begin(), neighbours.end());
+      adj.insert(adj.end(), neighbours.begin(), neighbours.end());
+      adj_start[node + 1] = static_cast<int>(adj.size());
+    }
+  }
+  // Node order for the factorisation, then free dofs numbered node by node in that order.
+  std::vector<int> order;
+  if (config.ordering == FemConfig::Ordering::kNestedDissection) {
+    order = nestedDissection(mesh.nodes, adj_start, adj);
+  } else {
+    order.resize(n_nodes);
+    for (int i = 0; i < n_nodes; ++i) order[i] = i;
+  }
+  std::vector<int> rank(n_nodes);
+  for (int i = 0; i < n_nodes; ++i) rank[order[i]] = i;
+  n_free = 0;
+  for (int node : order)
+    for (int c = 0; c < 3; ++c)
+      if (free_index[3 * node + c] >= 0) free_index[3 * node + c] = n_free++;
+  // Column pattern of the lower triangle: rows of a column come out sorted when the neighbour
+  // nodes are visited in increasing rank.
+  std::vector<int> outer(n_free + 1, 0), inner, neighbours;
+  for (int node : order) {
+    neighbours.clear();
+    for (int k = adj_start[node]; k < adj_start[node + 1]; ++k)
+      if (rank[adj[k]] >= rank[node]) neighbours.push_back(adj[k]);
+    std::sort(neighbours.begin(), neighbours.end(), [&](int x, int y) { return rank[x] < rank[y]; });
+    for (int c = 0; c < 3; ++c) {
+      const int col = free_index[3 * node + c];
+      if (col < 0) continue;
+      for (int other : neighbours)
+        for (int r = 0; r < 3; ++r) {
+          const int row = free_index[3 * other + r];
+          if (row >= col) inner.push_back(row);
+        }
+      outer[col + 1] = static_cast<int>(inner.size());
+    }
+  }
+  K.resize(n_free, n_free);
+  K.resizeNonZeros(static_cast<Eigen::Index>(inner.size()));
+  std::copy(outer.begin(), outer.end(), K.outerIndexPtr());
+  std::copy(inner.begin(), inner.end(), K.innerIndexPtr());
+  std::fill(K.valuePtr(), K.valuePtr() + inner.size(), 0.0);
+  // Scatter positions.
+  const int m = 3 * n, packed = m * (m + 1) / 2;
+  scatter.assign(static_cast<std::size_t>(n_el) * packed, -1);
+  parallelFor(n_el, threads, [&](int begin, int end) {
+    for (int e = begin; e < end; ++e)
+      for (int r = 0; r < m; ++r) {
+        const int fr = free_index[3 * mesh.elements[e][r / 3] + r % 3];
+        if (fr < 0) continue;
+        for (int c = 0; c <= r; ++c) {
+          const int fc = free_index[3 * mesh.elements[e][c / 3] + c % 3];
+          if (fc < 0) continue;
+          const int row = std::max(fr, fc), col = std::min(fr, fc);
+          const int* first = K.innerIndexPtr() + K.outerIndexPtr()[col];
+          const int* last = K.innerIndexPtr() + K.outerIndexPtr()[col + 1];
+          scatter[static_cast<std::size_t>(e) * packed + r * (r + 1) / 2 + c] =
+              static_cast<int>(std::lower_bound(first, last, row) - K.innerIndexPtr());
+        }
+      }
+  });
+}
+void FemSolver::Impl::setupLoads() {
+  const auto faces = boundaryFaces(mesh);
+  const auto rule = faceRule();
+  for (const core::Load& load : scenario.loads) {
+    struct Point {
+      int element;
+      Eigen::Vector4d L;
+    };
+    std::vector<Point> where;
+    std::vector<Eigen::Vector3d> points;
+    std::vector<double> weights;
+    for (const BoundaryFace& face : faces) {
+      const auto c = corners(face.element);
+      int local[3], k = 0;
+      for (int v = 0; v < 4; ++v)
+        if (v != face.opposite) local[k++] = v;
+      const Eigen::Vector3d centroid = (c[local[0]] + c[local[1]] + c[local[2]]) / 3.0;
+      if (!load.region.contains(centroid)) continue;
+      const double area = 0.5 * (c[local[1]] - c[local[0]]).cross(c[local[2]] - c[local[0]]).norm();
+      for (const auto& [b, w] : rule) {
+        Eigen::Vector4d L = Eigen::Vector4d::Zero();
+        Eigen::Vector3d x = Eigen::Vector3d::Zero();
+        for (int v = 0; v < 3; ++v) {
+          L(local[v]) = b(v);
+          x += b(v) * c[local[v]];
+        }
+        where.push_back({face.element, L});
+        points.push_back(x);
+        weights.push_back(w * area);
+      }
+    }
+    if (points.empty())
+      throw core::Error("load '" + load.name + "' selects no boundary face of the FEM mesh (face centroids): region " +
+                        load.region.describe());
+    const WrenchTraction t = spreadWrench(points, weights, load.force, load.torque, "load '" + load.name + "'");
+    for (std::size_t q = 0; q < points.size(); ++q) {
+      const Eigen::VectorXd N = tetShape(mesh.order, where[q].L);
+      const Eigen::Vector3d f = t.at(points[q]) * weights[q];
+      for (int a = 0; a < n; ++a) f_ext.segment<3>(3 * mesh.elements[where[q].element][a]) += N(a) * f;
+    }
+  }
+}
+
+
+template <int N>
+double FemSolver::Impl::elementEnergy(const Eigen::VectorXd& x, int e) const {
+  const auto& el = mesh.elements[e];
+  double psi = 0;
+  for (int q = 0; q < nq; ++q) {
+    const Eigen::Map<const Eigen::Matrix<double, N, 3, Eigen::RowMajor>> D(&dNdX[(static_cast<std::size_t>(e) * nq + q) * N * 3]);
+    Eigen::Matrix3d F = Eigen::Matrix3d::Identity();
+    for (int a = 0; a < N; ++a) F.noalias() += x.segment<3>(3 * el[a]) * D.row(a);
+    psi += material->energy(F) * weight[e * nq + q];
+  }
+  return psi;
+}
+
+double FemSolver::Impl::energy(const Eigen::VectorXd& x, double scale) const {
+  const int n_el = static_cast<int>(mesh.elements.size());
+  std::vector<double> psi(n_el);
+  parallelFor(n_el, threads, [&](int begin, int end) {
+    for (int e = begin; e < end; ++e) psi[e] = n == 4 ? elementEnergy<4>(x, e) : elementEnergy<10>(x, e);
+  });
+  // Summed in element order whatever the thread count.
+  double total = -scale * f_ext.dot(x);
+  for (double p : psi) total += p;
+  return std::isfinite(total) ? total : std::numeric_limits<double>::infinity();
+}
+
+template <int N>
+double FemSolver::Impl::assembleT(const Eigen::VectorXd& x, const Eigen::VectorXd& du, bool du_constrained,
+                                  Eigen::VectorXd& f_int, Eigen::VectorXd& Kdu_c) {
+  constexpr int M = 3 * N, packed = M * (M + 1) / 2;
+  using ElementMatrix = Eigen::Matrix<double, M, M>;
+  const int n_el = static_cast<int>(mesh.elements.size());
+  std::vector<double> psi(n_el, 0.0);
+  double* values = K.valuePtr();
+  for (const std::vector<int>& colour : colours) {
+    // No two elements of a colour share a node, so their scatters never touch the same entry and
+    // every entry receives its contributions in colour order: deterministic for any thread count.
+    parallelFor(static_cast<int>(colour.size()), threads, [&](int begin, int end) {
+      Eigen::Matrix<double, M, 1> fe;
+      ElementMatrix Ke;
+      for (int k = begin; k < end; ++k) {
+        const int e = colour[k];
+        const auto& el = mesh.elements[e];
+        fe.setZero();
+        Ke.setZero();
+        double psi_e = 0;
+        for (int q = 0; q < nq; ++q) {
+          const Eigen::Map<const Eigen::Matrix<double, N, 3, Eigen::RowMajor>> D(
+              &dNdX[(static_cast<std::size_t>(e) * nq + q) * N * 3]);
+          Eigen::Matrix3d F = Eigen::Matrix3d::Identity();
+          for (int a = 0; a < N; ++a) F.noalias() += x.segment<3>(3 * el[a]) * D.row(a);
+          if (!(F.determinant() > 0.0)) {
+            psi_e = std::numeric_limits<double>::infinity();
+            break;
+          }
+          const double w = weight[e * nq + q];
+          psi_e += material->energy(F) * w;
+          const Eigen::Matrix3d P = w * material->stress(F);
+          const Tangent A = w * material->tangent(F);
+          // f_a = P dN_a/dX.
+          const Eigen::Matrix<double, 3, N> PD = P * D.transpose();
+          for (int a = 0; a < N; ++a) fe.template segment<3>(3 * a) += PD.col(a);
+          // K(3a+i, 3b+k) = sum_JL D(a,J) A(3i+J, 3k+L) D(b,L): first contract L, then J.
+          for (int kk = 0; kk < 3; ++kk) {
+            const Eigen::Matrix<double, 9, N> AD = A.template block<9, 3>(0, 3 * kk) * D.transpose();
+            for (int i = 0; i < 3; ++i) {
+              const Eigen::Matrix<double, N, N> block = D * AD.template middleRows<3>(3 * i);
+              for (int b = 0; b < N; ++b)
+                for (int a = 0; a < N; ++a) Ke(3 * a + i, 3 * b + kk) += block(a, b);
+            }
+          }
+        }
+        psi[e] = psi_e;
+        if (!std::isfinite(psi_e)) continue;
+        const int* pos = &scatter[static_cast<std::size_t>(e) * packed];
+        for (int r = 0; r < M; ++r) {
+          const int gr = 3 * el[r / 3] + r % 3;
+          f_int(gr) += fe(r);
+          for (int c = 0; c <= r; ++c) {
+            const int p = pos[r * (r + 1) / 2 + c];
+            if (p >= 0) values[p] += Ke(r, c);
+          }
+        }
+        if (du_constrained)
+          for (int r = 0; r < M; ++r) {
+            const int fr = free_index[3 * el[r / 3] + r % 3];
+            if (fr < 0) continue;
+            for (int c = 0; c < M; ++c) {
+              const int gc = 3 * el[c / 3] + c % 3;
+              if (free_index[gc] < 0) Kdu_c(fr) += Ke(r, c) * du(gc);
+            }
+          }
+      }
+    });
+  }
+  double total = 0;
+  for (double p : psi) total += p;
+  return total;
+}
+
+double FemSolver::Impl::assemble(const Eigen::VectorXd& x, double scale, const Eigen::VectorXd& du, bool du_constrained,
+                                 Eigen::VectorXd& R, Eigen::VectorXd& Kdu_c, double& internal_norm) {
+  Eigen::VectorXd f_int = Eigen::VectorXd::Zero(x.size());
+  Kdu_c = Eigen::VectorXd::Zero(n_free);
+  std::fill(K.valuePtr(), K.valuePtr() + K.nonZeros(), 0.0);
+  const double psi = n == 4 ? assembleT<4>(x, du, du_constrained, f_int, Kdu_c) : assembleT<10>(x, du, du_constrained, f_int, Kdu_c);
+  if (!std::isfinite(psi)) return std::numeric_limits<double>::infinity();
+  R = f_int - scale * f_ext;
+  internal_norm = f_int.norm();
+  return psi - scale * f_ext.dot(x);
+}
+
+}  // namespace demnerf::mechanics
