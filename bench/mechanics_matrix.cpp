@@ -11,7 +11,9 @@
 //   scenarios=tbar_twist,cuboid_twist,cantilever_bending,uniaxial_compression,self_weight_sag,
 //             cook_membrane_plane_strain,beam3d   (default: all)
 //   samplers=random,poisson,grid   spacings=6,10,15 (divisors of the smallest dimension)
-//   sources=exact,nerf   solvers=fem,dem,dem_mlp,dem_mlp_exact
+//   sources=exact,nerf   solvers=fem,dem,dem_mlp,dem_mlp_exact (and the experimental columns
+//             dem_cells, dem_ext: cell quadrature without / with extended B-splines, with
+//             grid_spacings=2 ext_fill=0.75 levels=1)
 //   time_limit=60 (s per cell, SolveControl::time_limit)   mlp_iters=1500 (paper's DEM, per load step)
 //   fem_div=0 (FEM column's mesh size = smallest dimension / fem_div; 0: the CLI's automatic size)
 //   ref_div=8 conv_div=6 (reference FEM cells: smallest dimension / these)   ref_time_limit=1800
@@ -69,6 +71,8 @@ struct Settings {
   std::vector<std::string> scenarios, samplers, sources, solvers;
   std::vector<int> divisors;
   double time_limit = 60.0, ref_time_limit = 1800.0, fem_div = 0.0, nerf_seconds = 60.0;
+  double grid_spacings = 2.0, extension_fill = 0.75;  // the dem_cells / dem_ext columns
+  int boundary_levels = 1;
   int mlp_iters = 1500, ref_div = 8, conv_div = 6, seed = 1;
   std::string out, docs, title, yaml;
   bool partial = false;
@@ -95,6 +99,9 @@ Settings parseSettings(int argc, char** argv) {
   s.ref_div = static_cast<int>(num("ref_div", s.ref_div));
   s.conv_div = static_cast<int>(num("conv_div", s.conv_div));
   s.seed = static_cast<int>(num("seed", s.seed));
+  s.grid_spacings = num("grid_spacings", s.grid_spacings);
+  s.extension_fill = num("ext_fill", s.extension_fill);
+  s.boundary_levels = static_cast<int>(num("levels", s.boundary_levels));
   s.yaml = text("yaml", "");
   if (!s.yaml.empty() && s.scenarios.size() != 1) throw demnerf::core::Error("yaml= needs exactly one scenario in scenarios=");
   s.partial = !s.yaml.empty() || s.scenarios.size() < bench::matrixCases().size() || s.samplers.size() < 3 || s.sources.size() < 2 ||
@@ -119,13 +126,22 @@ dm::SimulateOptions solverOptions(const std::string& solver, const Settings& s, 
     o.dem.grid_spacings = 2;  // the feature-grid DEM, Newton only
     o.dem.grid_cell = 0;
     o.dem.adam_iterations = 0;
+  } else if (solver == "dem_cells" || solver == "dem_ext") {
+    // The sampler-independent quadrature (Gauss points in the cells inside the body), without and
+    // with extended B-splines; grid_spacings= and ext_fill= set the grid and the fill threshold.
+    o.dem.grid_spacings = s.grid_spacings;
+    o.dem.grid_cell = 0;
+    o.dem.adam_iterations = 0;
+    o.dem.grid_quadrature = dm::DemConfig::GridQuadrature::kCells;
+    o.dem.grid_boundary_levels = s.boundary_levels;
+    o.dem.grid_extension_fill = solver == "dem_ext" ? s.extension_fill : 0.0;
   } else if (solver == "dem_mlp" || solver == "dem_mlp_exact") {
     o.dem.grid_spacings = 0;  // the paper's DEM: the MLP alone, trained by Adam
     o.dem.grid_cell = 0;
     o.dem.adam_iterations = s.mlp_iters;
     o.dem.boundary = solver == "dem_mlp" ? dm::DemConfig::Boundary::kPenalty : dm::DemConfig::Boundary::kExact;
   } else {
-    throw core::Error("unknown solver column '" + solver + "': use fem, dem, dem_mlp or dem_mlp_exact");
+    throw core::Error("unknown solver column '" + solver + "': use fem, dem, dem_cells, dem_ext, dem_mlp or dem_mlp_exact");
   }
   return o;
 }
