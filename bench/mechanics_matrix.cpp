@@ -13,7 +13,7 @@
 //   samplers=random,poisson,grid   spacings=6,10,15 (divisors of the smallest dimension)
 //   sources=exact,nerf   solvers=fem,dem,dem_mlp,dem_mlp_exact (and the experimental columns
 //             dem_cells, dem_ext: cell quadrature without / with extended B-splines, with
-//             grid_spacings=2 ext_fill=0.75 levels=1)
+//             grid_spacings=2 ext_fill=0.75 levels=1, or body_cells=N: cells from the body's volume)
 //   time_limit=60 (s per cell, SolveControl::time_limit)   mlp_iters=1500 (paper's DEM, per load step)
 //   fem_div=0 (FEM column's mesh size = smallest dimension / fem_div; 0: the CLI's automatic size)
 //   ref_div=8 conv_div=6 (reference FEM cells: smallest dimension / these)   ref_time_limit=1800
@@ -71,7 +71,7 @@ struct Settings {
   std::vector<std::string> scenarios, samplers, sources, solvers;
   std::vector<int> divisors;
   double time_limit = 60.0, ref_time_limit = 1800.0, fem_div = 0.0, nerf_seconds = 60.0;
-  double grid_spacings = 2.0, extension_fill = 0.75;  // the dem_cells / dem_ext columns
+  double grid_spacings = 2.0, extension_fill = 0.75, body_cells = 0.0;  // the dem_cells / dem_ext columns
   int boundary_levels = 1;
   int mlp_iters = 1500, ref_div = 8, conv_div = 6, seed = 1;
   std::string out, docs, title, yaml;
@@ -101,6 +101,7 @@ Settings parseSettings(int argc, char** argv) {
   s.seed = static_cast<int>(num("seed", s.seed));
   s.grid_spacings = num("grid_spacings", s.grid_spacings);
   s.extension_fill = num("ext_fill", s.extension_fill);
+  s.body_cells = num("body_cells", s.body_cells);
   s.boundary_levels = static_cast<int>(num("levels", s.boundary_levels));
   s.yaml = text("yaml", "");
   if (!s.yaml.empty() && s.scenarios.size() != 1) throw demnerf::core::Error("yaml= needs exactly one scenario in scenarios=");
@@ -129,7 +130,8 @@ dm::SimulateOptions solverOptions(const std::string& solver, const Settings& s, 
   } else if (solver == "dem_cells" || solver == "dem_ext") {
     // The sampler-independent quadrature (Gauss points in the cells inside the body), without and
     // with extended B-splines; grid_spacings= and ext_fill= set the grid and the fill threshold.
-    o.dem.grid_spacings = s.grid_spacings;
+    o.dem.grid_spacings = s.body_cells > 0 ? 0.0 : s.grid_spacings;
+    o.dem.grid_body_cells = s.body_cells;
     o.dem.grid_cell = 0;
     o.dem.adam_iterations = 0;
     o.dem.grid_quadrature = dm::DemConfig::GridQuadrature::kCells;

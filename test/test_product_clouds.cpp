@@ -4,6 +4,8 @@
 // cloud the solver cannot handle must fail, never succeed with a positive energy under dead loads.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <cmath>
 #include <iostream>
 
@@ -72,13 +74,16 @@ core::ParticleCloud latticeBar(double h) {
 
 }  // namespace
 
-TEST(ProductClouds, SampledTBarIsAnEquilibriumOrARefusalForEverySampler) {
-  // The issue-13 failure: on `demnerf sample` particles the particle quadrature's energy can drop
-  // without bound where the sampler leaves a gap under the surface, and the grid Newton used to
-  // return such a field as a success (+7 J). Every answer must now be a checked equilibrium with an
-  // energy below the undeformed state's, or a SolveError that says why.
+TEST(ProductClouds, SampledTBarConvergesToTheSameEnergyWhicheverSamplerMadeIt) {
+  // The issue-13 failure: on `demnerf sample` particles the particle quadrature's energy could drop
+  // without bound where the sampler leaves a gap under the surface (+7 J "converged"; later 38 %
+  // apart between samplers). The default DEM integrates Gauss points in its cells and sizes them
+  // from the body, so each sampler's cloud must give a checked equilibrium (negative energy under
+  // these dead loads) and the three energies must agree (measured: within 12 %; the coarse Poisson
+  // cloud, half the particles of the others, is the stiffest).
   const auto tbar = demnerf::render::makeSceneObject(demnerf::render::SceneKind::kTBar);
   const core::Scenario scenario = tbarTwist();
+  std::vector<double> energies;
   for (const auto method : {demnerf::geometry::SamplingMethod::kGrid, demnerf::geometry::SamplingMethod::kRandom,
                             demnerf::geometry::SamplingMethod::kPoisson}) {
     SCOPED_TRACE(demnerf::geometry::samplingMethodName(method));
@@ -87,19 +92,16 @@ TEST(ProductClouds, SampledTBarIsAnEquilibriumOrARefusalForEverySampler) {
     sampler.spacing = 0.01;  // 1/6 of the section: the matrix's coarsest spacing
     const core::ParticleCloud cloud = demnerf::geometry::sampleParticles(tbar.mesh, sampler);
     dm::SimulateOptions options = defaultOptions();
-    options.control.time_limit = 30.0;
-    try {
-      const dm::SimulationOutcome out = dm::simulate(cloud, scenario, dm::SolverChoice::kDem, options);
-      std::cout << demnerf::geometry::samplingMethodName(method) << ": energy " << out.energy << " J, max |u| "
-                << out.max_displacement << " m in " << out.seconds << " s\n";
-      EXPECT_LT(out.energy, 0.0);
-      EXPECT_GT(out.max_displacement, 0.0);
-    } catch (const dm::SolveError& e) {
-      std::cout << demnerf::geometry::samplingMethodName(method) << " refused (" << dm::solveFailureName(e.failure())
-                << "): " << e.what() << "\n";
-      EXPECT_NE(std::string(e.what()).find("DEM"), std::string::npos);
-    }
+    options.control.time_limit = 60.0;
+    const dm::SimulationOutcome out = dm::simulate(cloud, scenario, dm::SolverChoice::kDem, options);
+    std::cout << demnerf::geometry::samplingMethodName(method) << ": energy " << out.energy << " J, max |u| "
+              << out.max_displacement << " m in " << out.seconds << " s\n";
+    EXPECT_LT(out.energy, 0.0);
+    EXPECT_GT(out.max_displacement, 0.0);
+    energies.push_back(out.energy);
   }
+  const auto [lowest, highest] = std::minmax_element(energies.begin(), energies.end());
+  EXPECT_GT(*highest / *lowest, 0.8) << "the samplers' energies differ by more than 20 %";
 }
 
 TEST(ProductClouds, TheNodeTestsLatticeBarConvergesAndAgreesWithTheFem) {

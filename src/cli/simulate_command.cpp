@@ -191,19 +191,18 @@ const char* usage() {
          "  --print-config         print the settings these options give, as a --config file, and exit\n"
          "  --json                 last line of stdout: the figures as one JSON object\n"
          "DEM:\n"
-         "  --method grid|mlp      default grid: the MLP plus a B-spline feature grid "
-      << number(d.dem.grid_spacings)
-      << " particle spacings wide,\n"
-         "                         solved by Newton; mlp: the paper's DEM, the MLP alone trained by Adam\n"
+         "  --method grid|mlp      default grid: the MLP plus a B-spline feature grid sized from the body,\n"
+         "                         integrated in its cells, solved by Newton; mlp: the paper's DEM, the MLP\n"
+         "                         alone trained by Adam\n"
          "                         ("
       << mlp.adam_iterations << " steps per load step) with the penalty boundary\n"
-         "  --grid-spacings S      default "
-      << number(d.dem.grid_spacings)
-      << ": feature grid cell in particle spacings (below 1.5 is refused with the particle quadrature)\n"
          "  --grid-body-cells N    default "
       << number(d.dem.grid_body_cells)
-      << " (off): cell = (V / N)^(1/3) from the body's volume instead of the particle spacing;\n"
-         "                         pairs with grid_quadrature: cells in --config (docs/dem_feature_grid.md)\n"
+      << ": cell = (V / N)^(1/3) from the body's volume (never finer than the particles)\n"
+         "  --grid-spacings S      default "
+      << number(d.dem.grid_spacings)
+      << " (off): cell in particle spacings instead (below 1.5 is refused with the particle\n"
+         "                         quadrature, grid_quadrature: particles in --config; docs/dem_feature_grid.md)\n"
          "  --grid-cell H          default "
       << number(d.dem.grid_cell)
       << " (off): cell edge in m; takes precedence over both; any grid flag sets Adam to 0\n"

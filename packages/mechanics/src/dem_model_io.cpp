@@ -33,6 +33,11 @@ nlohmann::json toJson(const DemConfig& c) {
           {"grid_newton_iterations", c.grid_newton_iterations},
           {"grid_refine_band", c.grid_refine_band},
           {"grid_surface_share", c.grid_surface_share},
+          {"grid_quadrature", c.grid_quadrature == DemConfig::GridQuadrature::kCells ? "cells" : "particles"},
+          {"grid_gauss_points", c.grid_gauss_points},
+          {"grid_boundary_levels", c.grid_boundary_levels},
+          {"grid_body_cells", c.grid_body_cells},
+          {"grid_extension_fill", c.grid_extension_fill},
           {"load_steps", c.load_steps},
           {"jitter", c.jitter},
           {"jitter_band", c.jitter_band},
@@ -73,6 +78,15 @@ DemConfig configFromJson(const nlohmann::json& j) {
   c.grid_newton_iterations = j.value("grid_newton_iterations", 30);
   c.grid_refine_band = j.value("grid_refine_band", 1.0);
   c.grid_surface_share = j.value("grid_surface_share", 0.04);
+  // Models saved before the cell quadrature was the default integrated by the particles, with the
+  // grid sized from grid_cell or grid_spacings and no extension.
+  c.grid_quadrature = j.value("grid_quadrature", std::string("particles")) == "cells"
+                          ? DemConfig::GridQuadrature::kCells
+                          : DemConfig::GridQuadrature::kParticles;
+  c.grid_gauss_points = j.value("grid_gauss_points", 2);
+  c.grid_boundary_levels = j.value("grid_boundary_levels", 0);
+  c.grid_body_cells = j.value("grid_body_cells", 0.0);
+  c.grid_extension_fill = j.value("grid_extension_fill", 0.0);
   c.load_steps = j.value("load_steps", 0);
   c.jitter = j.at("jitter");
   c.jitter_band = j.at("jitter_band");

@@ -54,7 +54,7 @@ TEST(Dem, UniaxialTractionMatchesTheClosedFormWithExactBoundaries) {
   const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(6, 6, 6));
   const core::Scenario s = uniaxial(2e5);
   dm::DemConfig config;
-  config.grid_spacings = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
+  config.grid_body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
   config.width = 16;
   config.depth = 2;
   config.adam_iterations = 1000;
@@ -81,7 +81,7 @@ TEST(Dem, OutputLayerNewtonAloneSolvesTheUniaxialStretch) {
   const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(6, 6, 6));
   const core::Scenario s = uniaxial(2e5);
   dm::DemConfig config;
-  config.grid_spacings = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
+  config.grid_body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
   config.width = 16;
   config.depth = 2;
   config.adam_iterations = 0;
@@ -103,7 +103,7 @@ TEST(Dem, ParametricModeAnswersEveryLoadInItsRangeWithoutRetraining) {
   const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(6, 6, 6));
   const core::Scenario s = uniaxial(2e5);
   dm::DemConfig config;
-  config.grid_spacings = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
+  config.grid_body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
   config.width = 16;
   config.depth = 2;
   config.adam_iterations = 600;
@@ -144,7 +144,7 @@ TEST(Dem, UniaxialTractionWithThePenaltyFormulation) {
   const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(6, 6, 6));
   const core::Scenario s = uniaxial(2e5);
   dm::DemConfig config;
-  config.grid_spacings = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
+  config.grid_body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
   config.width = 16;
   config.depth = 2;
   config.boundary = dm::DemConfig::Boundary::kPenalty;
@@ -204,7 +204,7 @@ TEST(Dem, BadInputFailsBeforeTraining) {
   EXPECT_THROW(dm::DemSolver(cloud, s), core::Error);
   s = uniaxial(1e5);
   dm::DemConfig config;
-  config.grid_spacings = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
+  config.grid_body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
   config.activation = "relu6";
   EXPECT_THROW(dm::DemSolver(cloud, s, config), core::Error);
 }
@@ -214,7 +214,7 @@ TEST(Dem, CrushingLoadIsReportedNotReturned) {
   const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(3, 3, 3));
   core::Scenario s = uniaxial(-5e7);
   dm::DemConfig config;
-  config.grid_spacings = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
+  config.grid_body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
   config.width = 8;
   config.depth = 1;
   config.adam_iterations = 50;
@@ -229,7 +229,7 @@ TEST(Dem, CrushingLoadIsReportedNotReturned) {
 TEST(Dem, SavedModelsPredictExactlyAsBeforeAndDamageIsReported) {
   const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(4, 4, 4));
   dm::DemConfig config;
-  config.grid_spacings = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
+  config.grid_body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
   config.width = 8;
   config.depth = 2;
   config.adam_iterations = 50;

@@ -265,7 +265,7 @@ TEST(DemGrid, SimpleShearMatchesTheClosedFormWithAndWithoutTheGrid) {
     config.adam_iterations = grid ? 0 : 300;
     config.grid_cell = grid ? 0.34 : 0.0;
     config.grid_quadrature = dm::DemConfig::GridQuadrature::kParticles;
-    config.grid_spacings = 0.0;  // without grid_cell: the MLP alone
+    config.grid_body_cells = 0.0;  // without grid_cell: the MLP alone
     config.threads = 1;
     dm::DemSolver dem(cloud, s, config);
     const dm::DemReport r = dem.solve();

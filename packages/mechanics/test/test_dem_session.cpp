@@ -42,7 +42,7 @@ TEST(DemSession, LoadScaleIsFoundOnlyForAPureScaling) {
 
 TEST(DemSession, ScaledLoadsAreAnsweredInstantlyOthersWarmStarted) {
   dm::DemConfig config;
-  config.grid_spacings = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
+  config.grid_body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
   config.width = 16;
   config.depth = 2;
   config.adam_iterations = 300;

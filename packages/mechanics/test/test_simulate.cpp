@@ -173,7 +173,7 @@ TEST(Simulate, DemGivesOneRowPerParticleInOrder) {
   options.dem.width = 8;
   options.dem.depth = 1;
   options.dem.adam_iterations = 30;
-  options.dem.grid_spacings = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
+  options.dem.grid_body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
   options.dem.threads = 1;
   const dm::SimulationOutcome out = dm::simulate(cloud, uniaxial(1e5, 1.0), dm::SolverChoice::kDem, options);
   ASSERT_EQ(out.field.size(), cloud.size());

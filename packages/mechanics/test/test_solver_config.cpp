@@ -137,11 +137,14 @@ TEST(SolverConfig, BadFilesAreRejectedNamingTheFileAndTheKey) {
 TEST(SolverConfig, TheDefaultDemIsTheFeatureGridAndThePaperDemTheMlp) {
   const dm::DemConfig grid = dm::demConfigForMethod("grid");
   EXPECT_EQ(dm::solverConfigYaml(dm::solverDefaults()), dm::solverConfigYaml(dm::SimulateOptions{}));
-  EXPECT_EQ(grid.grid_spacings, 2.0);
+  EXPECT_EQ(grid.grid_body_cells, 600.0);
+  EXPECT_EQ(grid.grid_quadrature, dm::DemConfig::GridQuadrature::kCells);
+  EXPECT_GT(grid.grid_extension_fill, 0.0);
   EXPECT_EQ(grid.adam_iterations, 0);
   EXPECT_EQ(grid.boundary, dm::DemConfig::Boundary::kExact);
   const dm::DemConfig mlp = dm::demConfigForMethod("mlp");
   EXPECT_EQ(mlp.grid_spacings, 0.0);
+  EXPECT_EQ(mlp.grid_body_cells, 0.0);
   EXPECT_EQ(mlp.grid_cell, 0.0);
   EXPECT_GT(mlp.adam_iterations, 0);
   EXPECT_EQ(mlp.boundary, dm::DemConfig::Boundary::kPenalty);
@@ -149,6 +152,7 @@ TEST(SolverConfig, TheDefaultDemIsTheFeatureGridAndThePaperDemTheMlp) {
   const dm::DemConfig parametric = dm::parametricDemConfig(grid);
   EXPECT_TRUE(parametric.parametric);
   EXPECT_EQ(parametric.grid_spacings, 0.0);
+  EXPECT_EQ(parametric.grid_body_cells, 0.0);
   EXPECT_EQ(parametric.adam_iterations, mlp.adam_iterations);
   EXPECT_EQ(parametric.boundary, dm::DemConfig::Boundary::kExact);
 

@@ -15,11 +15,13 @@
 
 namespace demnerf::mechanics {
 
-/// The defaults are the product's DEM: the feature grid two particle spacings wide, integrated by
-/// the particles (grid_quadrature kParticles) and solved by Newton (adam_iterations = 0);
-/// paperDemConfig() is the paper's MLP-only DEM. The sampler-independent cell quadrature with the
-/// grid sized from the body (kCells, grid_body_cells) is an option: docs/dem_feature_grid.md.
-/// `demnerf simulate` and dem_node start from these (config/solvers.yaml lists every field).
+/// The defaults are the product's DEM: a feature grid sized from the body (grid_body_cells),
+/// integrated by Gauss points in its cells wherever the particles say the body is (kCells, so the
+/// sampler does not matter), with extended B-splines at cut cells, solved by Newton
+/// (adam_iterations = 0); paperDemConfig() is the paper's MLP-only DEM. The grid sized in particle
+/// spacings and integrated by the particles (grid_spacings, kParticles) is the earlier default,
+/// right on lattice clouds only: docs/dem_feature_grid.md. `demnerf simulate` and dem_node start
+/// from these (config/solvers.yaml lists every field).
 struct DemConfig {
   int width = 64;                      ///< hidden units per layer
   int depth = 3;                       ///< hidden layers
@@ -61,9 +63,9 @@ struct DemConfig {
   /// "Mechanics").
   double grid_cell = 0.0;
   /// With grid_cell 0: a grid of cells this many particle spacings wide (the cube root of the 90th
-  /// percentile of the particle volumes; 2 is a good choice), so one setting suits any object.
-  /// 0: no grid (the MLP alone, unless grid_cell or grid_body_cells asks for one).
-  double grid_spacings = 2.0;
+  /// percentile of the particle volumes; 2 suits the particle quadrature). 0 (default): the grid
+  /// follows grid_body_cells; no grid at all (the MLP alone) when that is 0 too.
+  double grid_spacings = 0.0;
   int grid_degree = 2;  ///< 1 (trilinear), 2 (C1 quadratic) or 3 (C2 cubic)
   int grid_newton_iterations = 30;
   /// Newton has no jitter (below): for its fixed quadrature, particles within this many grid
@@ -77,25 +79,25 @@ struct DemConfig {
   /// particles of the T-bar: one corner particle moved 287 mm in a 60 mm twist); energyWeights' full
   /// share (f = 1) overstates a twisted section's surface strain (6 % error). README "Mechanics".
   double grid_surface_share = 0.04;
-  /// The grid Newton's volume quadrature. kParticles (default): the particles' own volumes
+  /// The grid Newton's volume quadrature. kParticles: the particles' own volumes
   /// (midpoint rule; grid_surface_share and grid_refine_band apply): right on lattice layouts,
   /// but a sampler's gap between its outermost interior particles and the surface lets the
   /// energy drop without bound there (the equilibrium checks then refuse the answer). kCells:
   /// Gauss points in the grid's cells where the body is, cut cells moment-fitted
-  /// (cell_quadrature.hpp), independent of the sampler; measured in docs/dem_feature_grid.md.
+  /// (cell_quadrature.hpp), independent of the sampler (default); measured in docs/dem_feature_grid.md.
   enum class GridQuadrature { kCells, kParticles };
-  GridQuadrature grid_quadrature = GridQuadrature::kParticles;
+  GridQuadrature grid_quadrature = GridQuadrature::kCells;
   int grid_gauss_points = 2;      ///< Gauss points per axis and cell (kCells)
-  int grid_boundary_levels = 0;   ///< times a cut cell is split in 2 x 2 x 2 (kCells)
+  int grid_boundary_levels = 1;   ///< times a cut cell is split in 2 x 2 x 2 (kCells)
   /// With grid_cell and grid_spacings 0: a grid whose cells hold the body's volume this many times,
   /// cell = (V / grid_body_cells)^(1/3), so the grid follows the body and not the particles (but
   /// never finer than the particle spacing); 0: no grid unless grid_cell or grid_spacings asks.
   /// 600 gives the T-bar's 60 mm section 4 cells of 15 mm (docs/dem_feature_grid.md).
-  double grid_body_cells = 0.0;
+  double grid_body_cells = 600.0;
   /// Extended B-splines (bspline_extension.hpp): grid nodes whose support holds no cell the
   /// quadrature fills to this share are extrapolated from a filled cell nearby instead of being
   /// unknowns, which removes the near-singular slivers of cut cells (0: off).
-  double grid_extension_fill = 0.0;
+  double grid_extension_fill = 0.75;
   /// Load steps (0: the scenario's, or 1 with the feature grid: Newton with its line search takes
   /// the T-bar twist in one, 4 s, where the scenario's 4 steps take 9 s; a failed step is halved).
   int load_steps = 0;
