@@ -1,0 +1,125 @@
+#include "demnerf/mechanics/patch_response.hpp"
+
+#include <chrono>
+#include <cmath>
+
+#include "demnerf/core/error.hpp"
+#include "demnerf/mechanics/boundary_conditions.hpp"
+
+namespace demnerf::mechanics {
+namespace {
+
+double secondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+Eigen::MatrixXd asMatrix(const std::vector<Eigen::Vector3d>& u) {
+  Eigen::MatrixXd m(static_cast<Eigen::Index>(u.size()), 3);
+  for (std::size_t i = 0; i < u.size(); ++i) m.row(static_cast<Eigen::Index>(i)) = u[i].transpose();
+  return m;
+}
+
+// Component k of the wrench (0-2 force, 3-5 torque).
+double component(const Eigen::Vector3d& force, const Eigen::Vector3d& torque, int k) {
+  return k < 3 ? force[k] : torque[k - 3];
+}
+
+}  // namespace
+
+PatchResponse::PatchResponse(core::ParticleCloud cloud, core::Scenario base, core::Region patch, DemConfig dem,
+                             PatchResponseConfig config)
+    : cloud_(std::move(cloud)), base_(std::move(base)), patch_(patch), dem_(std::move(dem)), config_(config) {
+  if (!(config_.force_range > 0.0) || !(config_.torque_range >= 0.0) || !std::isfinite(config_.force_range) ||
+      !std::isfinite(config_.torque_range))
+    throw core::Error("patch response: force_range must be > 0 and torque_range >= 0 (finite)");
+  if (dem_.parametric) throw core::Error("patch response: superposes grid-Newton solves; parametric mode does not apply");
+  cloud_.validate();
+  validateProblem(scenarioFor(Eigen::Vector3d(config_.force_range, 0, 0), Eigen::Vector3d::Zero()), cloud_);
+}
+
+PatchResponse::~PatchResponse() = default;
+
+core::Scenario PatchResponse::scenarioFor(const Eigen::Vector3d& force, const Eigen::Vector3d& torque) const {
+  core::Scenario scenario = base_;
+  core::Load load;
+  load.name = "patch wrench";
+  load.region = patch_;
+  load.force = force;
+  load.torque = torque;
+  scenario.loads = {load};
+  return scenario;
+}
+
+core::ResultField PatchResponse::fullSolve(const core::Scenario& scenario, const SolveControl& control) {
+  try {
+    if (solver_) {
+      solver_->setScenario(scenario);
+    } else {
+      solver_ = std::make_unique<DemSolver>(cloud_, scenario, dem_);
+    }
+    solver_->setControl(control);
+    solver_->solve();
+    return solver_->result();
+  } catch (...) {
+    solver_.reset();  // half-solved: the next one starts cold
+    throw;
+  }
+}
+
+void PatchResponse::prepare(const SolveControl& control) {
+  const auto start = std::chrono::steady_clock::now();
+  const int components = config_.torque_range > 0.0 ? 6 : 3;
+  std::vector<Eigen::MatrixXd> linear, quadratic;
+  for (int k = 0; k < components; ++k) {
+    const double a = k < 3 ? config_.force_range : config_.torque_range;
+    Eigen::Matrix<double, 6, 1> w = Eigen::Matrix<double, 6, 1>::Zero();
+    w[k] = a;
+    const Eigen::MatrixXd plus = asMatrix(fullSolve(scenarioFor(w.head<3>(), w.tail<3>()), control).displacements);
+    const Eigen::MatrixXd minus = asMatrix(fullSolve(scenarioFor(-w.head<3>(), -w.tail<3>()), control).displacements);
+    // u(s) ~ L s + Q s^2 through u(a) and u(-a).
+    linear.push_back((plus - minus) / (2.0 * a));
+    quadratic.push_back((plus + minus) / (2.0 * a * a));
+  }
+  linear_ = std::move(linear);
+  quadratic_ = std::move(quadratic);
+  preparation_seconds_ = secondsSince(start);
+}
+
+bool PatchResponse::covers(const Eigen::Vector3d& force, const Eigen::Vector3d& torque) const {
+  if (!force.allFinite() || !torque.allFinite()) return false;
+  const bool torque_ok = config_.torque_range > 0.0 ? torque.cwiseAbs().maxCoeff() <= config_.torque_range
+                                                    : torque.isZero(0.0);
+  return prepared() && force.cwiseAbs().maxCoeff() <= config_.force_range && torque_ok;
+}
+
+core::ResultField PatchResponse::superpose(const Eigen::Vector3d& force, const Eigen::Vector3d& torque) const {
+  if (!prepared()) throw core::Error("patch response: prepare() has not run");
+  if (!covers(force, torque)) throw core::Error("patch response: the wrench lies outside the prepared range");
+  Eigen::MatrixXd u = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(cloud_.size()), 3);
+  for (std::size_t k = 0; k < linear_.size(); ++k) {
+    const double s = component(force, torque, static_cast<int>(k));
+    if (s != 0.0) u += s * linear_[k] + (s * s) * quadratic_[k];
+  }
+  core::ResultField field;
+  field.resize(cloud_.size());
+  field.positions = cloud_.positions;
+  for (std::size_t i = 0; i < cloud_.size(); ++i) field.displacements[i] = u.row(static_cast<Eigen::Index>(i)).transpose();
+  return field;
+}
+
+PatchAnswer PatchResponse::answer(const Eigen::Vector3d& force, const Eigen::Vector3d& torque,
+                                  const SolveControl& control) {
+  const auto start = std::chrono::steady_clock::now();
+  PatchAnswer answer;
+  if (covers(force, torque)) {
+    answer.field = superpose(force, torque);
+    answer.path = "basis";
+  } else {
+    answer.field = fullSolve(scenarioFor(force, torque), control);
+    answer.path = "full";
+  }
+  answer.seconds = secondsSince(start);
+  return answer;
+}
+
+}  // namespace demnerf::mechanics
