@@ -40,7 +40,7 @@ double relativeL2(const std::vector<Vector3d>& u, const std::vector<Vector3d>& r
 
 }  // namespace
 
-TEST(PatchResponse, AWrenchInTheRangeIsTheBasisAndClosToAFullSolve) {
+TEST(PatchResponse, AWrenchInTheRangeIsTheBasisAndCloseToAFullSolve) {
   const core::ParticleCloud cloud =
       dm::makeBoxParticles(Vector3d(0, -0.01, -0.01), Vector3d(0.1, 0.01, 0.01), Eigen::Vector3i(20, 4, 4));
   core::Region patch;
