@@ -135,7 +135,7 @@ InteractivePush::InteractivePush(const ros::NodeHandle& private_node, const std:
       server_(private_node.resolveName("push"), "", false) {}
 
 void InteractivePush::setBody(const demnerf::core::ParticleCloud& cloud, const demnerf::core::Scenario& scenario) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  std::unique_lock<std::mutex> lock(mutex_);
   const bool first = !cloud_;
   cloud_ = cloud;
   Eigen::AlignedBox3d box;
@@ -151,13 +151,19 @@ void InteractivePush::setBody(const demnerf::core::ParticleCloud& cloud, const d
     point = nearestSurfacePoint(cloud, rest_.translation());
   }
   rest_ = restPose(point);
-  insertMarkers();
+  const Placement placement = currentPlacement();
+  lock.unlock();  // the server calls onPush under its own lock, which takes mutex_: never the other way
+  insertMarkers(placement);
 }
 
-void InteractivePush::insertMarkers() {
-  server_.insert(pushMarker(frame_, rest_, marker_scale_, contact_radius_),
+InteractivePush::Placement InteractivePush::currentPlacement() const {
+  return Placement{rest_, fixture_center_, fixture_size_, marker_scale_};
+}
+
+void InteractivePush::insertMarkers(const Placement& placement) {
+  server_.insert(pushMarker(frame_, placement.rest, placement.scale, contact_radius_),
                  [this](const Feedback& feedback) { onPush(feedback); });
-  server_.insert(fixtureMarker(frame_, fixture_center_, fixture_size_),
+  server_.insert(fixtureMarker(frame_, placement.fixture_center, placement.fixture_size),
                  [this](const Feedback& feedback) { onFixture(feedback); });
   server_.applyChanges();
 }
@@ -171,18 +177,20 @@ void InteractivePush::onPush(const Feedback& feedback) {
       throw Error("feedback in frame '" + feedback->header.frame_id + "', the markers live in '" + frame_ + "'");
     const Eigen::Isometry3d pose = poseOf(*feedback);
     demnerf::core::Load load;
+    std::optional<Placement> moved;
     {
       std::lock_guard<std::mutex> lock(mutex_);
       if (!cloud_) throw Error("no particle cloud yet to push");
       if (feedback->control_name == "patch") {
         if (!release) return;  // the patch is chosen where the sphere is let go
         rest_ = restPose(nearestSurfacePoint(*cloud_, pose.translation()));
-        insertMarkers();  // snapped onto the surface, arrows along the new normal
+        moved = currentPlacement();
         load = pushLoad(rest_, rest_, scales_, contact_radius_);  // a new patch starts unloaded
       } else {
         load = pushLoad(rest_, pose, scales_, contact_radius_);
       }
     }
+    if (moved) insertMarkers(*moved);  // snapped onto the surface, arrows along the new normal
     hooks_.push(load);
   } catch (const std::exception& error) {
     hooks_.refuse("push", std::string("push marker: ") + error.what());

@@ -53,8 +53,16 @@ class InteractivePush {
   using Feedback = visualization_msgs::InteractiveMarkerFeedbackConstPtr;
   void onPush(const Feedback& feedback);
   void onFixture(const Feedback& feedback);
-  /// Puts both markers in the server at their rest poses (mutex_ held).
-  void insertMarkers();
+  /// Where the markers rest.
+  struct Placement {
+    Eigen::Isometry3d rest;
+    Eigen::Vector3d fixture_center, fixture_size;
+    double scale;
+  };
+  Placement currentPlacement() const;  ///< mutex_ held
+  /// Puts both markers in the server at their rest poses; never with mutex_ held (lock order:
+  /// the server's lock, then mutex_, as in its feedback callbacks).
+  void insertMarkers(const Placement& placement);
 
   std::string frame_;
   double contact_radius_;
