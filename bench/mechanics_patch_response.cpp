@@ -3,7 +3,7 @@
 // wrench on its front_right patch), then random wrenches in the range answered by the basis and
 // by a full DEM solve from scratch (the reference): time per answer and rel. L2 against it.
 // Usage: mechanics_patch_response [cell=0.015] [force=0.5] [torque=0.02] [wrenches=8] [seed=1]
-//        [scenario=config/scenarios/tbar_twist.yaml]
+//        [cross=1] [scenario=config/scenarios/tbar_twist.yaml]
 
 #include <cstdio>
 #include <random>
@@ -54,11 +54,13 @@ int main(int argc, char** argv) {
   dm::PatchResponseConfig config;
   config.force_range = force_range;
   config.torque_range = torque_range;
+  config.cross_terms = number("cross", 1.0) != 0.0;
   dm::PatchResponse response(cloud, base, patch, dem, config);
   response.prepare();
   std::printf("T-bar, %zu particles (cell %.4f m), patch %s\n", cloud.size(), h, patch.describe().c_str());
-  std::printf("range: |F_i| <= %.3g N, |T_i| <= %.3g N m; preparation (%d DEM solves) %.2f s\n\n", force_range,
-              torque_range, torque_range > 0 ? 12 : 6, response.preparationSeconds());
+  std::printf("range: |F_i| <= %.3g N, |T_i| <= %.3g N m; preparation (%d DEM solves%s) %.2f s\n\n", force_range,
+              torque_range, response.preparationSolves(), config.cross_terms ? ", cross terms" : "",
+              response.preparationSeconds());
   std::printf("| wrench | F (N) | T (N m) | max |u| (mm) | basis (ms) | full solve (s) | rel. L2 |\n");
   std::printf("| --- | --- | --- | --- | --- | --- | --- |\n");
   std::mt19937 random(static_cast<unsigned>(number("seed", 1)));

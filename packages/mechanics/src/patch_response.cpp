@@ -66,22 +66,45 @@ core::ResultField PatchResponse::fullSolve(const core::Scenario& scenario, const
   }
 }
 
+// The wrench with components a_k e_k for k in `ks` (a_k the range's bound).
+void PatchResponse::unitWrench(std::initializer_list<int> ks, double sign, Eigen::Vector3d& force,
+                               Eigen::Vector3d& torque) const {
+  Eigen::Matrix<double, 6, 1> w = Eigen::Matrix<double, 6, 1>::Zero();
+  for (int k : ks) w[k] = sign * (k < 3 ? config_.force_range : config_.torque_range);
+  force = w.head<3>();
+  torque = w.tail<3>();
+}
+
+Eigen::MatrixXd PatchResponse::solveFor(std::initializer_list<int> ks, double sign, const SolveControl& control) {
+  Eigen::Vector3d force, torque;
+  unitWrench(ks, sign, force, torque);
+  ++solves_;
+  return asMatrix(fullSolve(scenarioFor(force, torque), control).displacements);
+}
+
 void PatchResponse::prepare(const SolveControl& control) {
   const auto start = std::chrono::steady_clock::now();
   const int components = config_.torque_range > 0.0 ? 6 : 3;
-  std::vector<Eigen::MatrixXd> linear, quadratic;
+  std::vector<Eigen::MatrixXd> linear, quadratic, plus, cross;
+  solves_ = 0;
   for (int k = 0; k < components; ++k) {
     const double a = k < 3 ? config_.force_range : config_.torque_range;
-    Eigen::Matrix<double, 6, 1> w = Eigen::Matrix<double, 6, 1>::Zero();
-    w[k] = a;
-    const Eigen::MatrixXd plus = asMatrix(fullSolve(scenarioFor(w.head<3>(), w.tail<3>()), control).displacements);
-    const Eigen::MatrixXd minus = asMatrix(fullSolve(scenarioFor(-w.head<3>(), -w.tail<3>()), control).displacements);
+    plus.push_back(solveFor({k}, 1.0, control));
+    const Eigen::MatrixXd minus = solveFor({k}, -1.0, control);
     // u(s) ~ L s + Q s^2 through u(a) and u(-a).
-    linear.push_back((plus - minus) / (2.0 * a));
-    quadratic.push_back((plus + minus) / (2.0 * a * a));
+    linear.push_back((plus[k] - minus) / (2.0 * a));
+    quadratic.push_back((plus[k] + minus) / (2.0 * a * a));
   }
+  for (int i = 0; config_.cross_terms && i < components; ++i)
+    for (int j = i + 1; j < components; ++j) {
+      const double ai = i < 3 ? config_.force_range : config_.torque_range;
+      const double aj = j < 3 ? config_.force_range : config_.torque_range;
+      // u(a_i, a_j) - u(a_i) - u(a_j) leaves the mixed second-order term B_ij a_i a_j.
+      cross.push_back((solveFor({i, j}, 1.0, control) - plus[i] - plus[j]) / (ai * aj));
+    }
   linear_ = std::move(linear);
   quadratic_ = std::move(quadratic);
+  cross_ = std::move(cross);
   preparation_seconds_ = secondsSince(start);
 }
 
@@ -96,10 +119,17 @@ core::ResultField PatchResponse::superpose(const Eigen::Vector3d& force, const E
   if (!prepared()) throw core::Error("patch response: prepare() has not run");
   if (!covers(force, torque)) throw core::Error("patch response: the wrench lies outside the prepared range");
   Eigen::MatrixXd u = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(cloud_.size()), 3);
-  for (std::size_t k = 0; k < linear_.size(); ++k) {
-    const double s = component(force, torque, static_cast<int>(k));
+  const int components = static_cast<int>(linear_.size());
+  for (int k = 0; k < components; ++k) {
+    const double s = component(force, torque, k);
     if (s != 0.0) u += s * linear_[k] + (s * s) * quadratic_[k];
   }
+  std::size_t pair = 0;
+  for (int i = 0; i < components && !cross_.empty(); ++i)
+    for (int j = i + 1; j < components; ++j, ++pair) {
+      const double s = component(force, torque, i) * component(force, torque, j);
+      if (s != 0.0) u += s * cross_[pair];
+    }
   core::ResultField field;
   field.resize(cloud_.size());
   field.positions = cloud_.positions;
