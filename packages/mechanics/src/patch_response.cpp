@@ -19,6 +19,18 @@ Eigen::MatrixXd asMatrix(const std::vector<Eigen::Vector3d>& u) {
   return m;
 }
 
+bool sameRegion(const core::Region& a, const core::Region& b) {
+  return a.type == b.type && a.center == b.center && a.size == b.size && a.radius == b.radius && a.normal == b.normal;
+}
+
+// Nothing but the wrench drives the base: its answer without wrench is zero.
+bool restsWithoutWrench(const core::Scenario& base) {
+  if (!base.body_force.isZero()) return false;
+  for (const auto& fixture : base.fixtures)
+    if (!fixture.displacement.isZero()) return false;
+  return true;
+}
+
 // Component k of the wrench (0-2 force, 3-5 torque).
 double component(const Eigen::Vector3d& force, const Eigen::Vector3d& torque, int k) {
   return k < 3 ? force[k] : torque[k - 3];
@@ -87,24 +99,28 @@ void PatchResponse::prepare(const SolveControl& control) {
   const int components = config_.torque_range > 0.0 ? 6 : 3;
   std::vector<Eigen::MatrixXd> linear, quadratic, plus, cross;
   solves_ = 0;
+  // The expansion is about the base's own state (body force, moved fixtures), u(0).
+  const Eigen::MatrixXd rest = restsWithoutWrench(base_) ? Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(cloud_.size()), 3)
+                                                         : solveFor({}, 1.0, control);
   for (int k = 0; k < components; ++k) {
     const double a = k < 3 ? config_.force_range : config_.torque_range;
     plus.push_back(solveFor({k}, 1.0, control));
     const Eigen::MatrixXd minus = solveFor({k}, -1.0, control);
     // u(s) ~ L s + Q s^2 through u(a) and u(-a).
     linear.push_back((plus[k] - minus) / (2.0 * a));
-    quadratic.push_back((plus[k] + minus) / (2.0 * a * a));
+    quadratic.push_back((plus[k] + minus - 2.0 * rest) / (2.0 * a * a));
   }
   for (int i = 0; config_.cross_terms && i < components; ++i)
     for (int j = i + 1; j < components; ++j) {
       const double ai = i < 3 ? config_.force_range : config_.torque_range;
       const double aj = j < 3 ? config_.force_range : config_.torque_range;
       // u(a_i, a_j) - u(a_i) - u(a_j) leaves the mixed second-order term B_ij a_i a_j.
-      cross.push_back((solveFor({i, j}, 1.0, control) - plus[i] - plus[j]) / (ai * aj));
+      cross.push_back((solveFor({i, j}, 1.0, control) - plus[i] - plus[j] + rest) / (ai * aj));
     }
   linear_ = std::move(linear);
   quadratic_ = std::move(quadratic);
   cross_ = std::move(cross);
+  rest_ = rest;
   preparation_seconds_ = secondsSince(start);
 }
 
@@ -115,10 +131,24 @@ bool PatchResponse::covers(const Eigen::Vector3d& force, const Eigen::Vector3d& 
   return prepared() && force.cwiseAbs().maxCoeff() <= config_.force_range && torque_ok;
 }
 
+bool PatchResponse::answersFor(const core::Scenario& scenario) const {
+  const core::Material &a = scenario.material, &b = base_.material;
+  if (a.model != b.model || a.youngs_modulus != b.youngs_modulus || a.poisson_ratio != b.poisson_ratio ||
+      scenario.body_force != base_.body_force || scenario.fixtures.size() != base_.fixtures.size() ||
+      scenario.loads.size() != 1 || !sameRegion(scenario.loads.front().region, patch_))
+    return false;
+  for (std::size_t i = 0; i < scenario.fixtures.size(); ++i) {
+    const core::Fixture &f = scenario.fixtures[i], &g = base_.fixtures[i];
+    if (!sameRegion(f.region, g.region) || f.displacement != g.displacement || f.constrained != g.constrained)
+      return false;
+  }
+  return true;
+}
+
 core::ResultField PatchResponse::superpose(const Eigen::Vector3d& force, const Eigen::Vector3d& torque) const {
   if (!prepared()) throw core::Error("patch response: prepare() has not run");
   if (!covers(force, torque)) throw core::Error("patch response: the wrench lies outside the prepared range");
-  Eigen::MatrixXd u = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(cloud_.size()), 3);
+  Eigen::MatrixXd u = rest_;
   const int components = static_cast<int>(linear_.size());
   for (int k = 0; k < components; ++k) {
     const double s = component(force, torque, k);

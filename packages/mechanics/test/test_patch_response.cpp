@@ -58,6 +58,10 @@ TEST(PatchResponse, AWrenchInTheRangeIsTheBasisAndCloseToAFullSolve) {
 
   const Vector3d force(0.0015, -0.002, 0.003), torque(-4e-5, 6e-5, 2e-5);
   ASSERT_TRUE(response.covers(force, torque));
+  EXPECT_TRUE(response.answersFor(response.scenarioFor(force, torque)));
+  core::Scenario elsewhere = response.scenarioFor(force, torque);
+  elsewhere.loads.front().region.center.y() += 0.005;
+  EXPECT_FALSE(response.answersFor(elsewhere)) << "another patch";
   const dm::PatchAnswer fast = response.answer(force, torque);
   EXPECT_EQ(fast.path, "basis");
   dm::DemSolver full(cloud, response.scenarioFor(force, torque), dem);

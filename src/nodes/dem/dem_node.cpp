@@ -449,9 +449,10 @@ demnerf::mechanics::SimulationOutcome DemNode::solveJob(const SolveJob& job, std
   };
   // The DEM lives across solves (warm starts; with ~parametric, scaled loads need no training);
   // the baselines solve from scratch.
-  return job.settings.solver == demnerf::mechanics::SolverChoice::kDem
-             ? solveWithSession(job, options.control, how)
-             : demnerf::mechanics::simulate(job.cloud, job.scenario, job.settings.solver, options);
+  if (job.settings.solver != demnerf::mechanics::SolverChoice::kDem)
+    return demnerf::mechanics::simulate(job.cloud, job.scenario, job.settings.solver, options);
+  if (auto outcome = solveWithPatchBasis(job, options.control, how)) return *outcome;
+  return solveWithSession(job, options.control, how);
 }
 
 void DemNode::runSolve(const SolveJob& job) {

@@ -30,6 +30,7 @@
 #include "demnerf/core/ply.hpp"
 #include "demnerf/core/scenario.hpp"
 #include "demnerf/mechanics/dem_session.hpp"
+#include "demnerf/mechanics/patch_response.hpp"
 #include "demnerf/mechanics/simulate.hpp"
 #include "demnerf/mechanics/solve_control.hpp"
 #include "nodes/common/rejection_counter.hpp"
@@ -76,6 +77,10 @@ class DemNode {
   void onPushLoad(const demnerf::core::Load& load);
   /// The fixture box replaces the first fixture when it holds particles, and is solved.
   void onFixtureBox(const Eigen::Vector3d& center, const Eigen::Vector3d& size);
+  /// With ~patch_basis_force_range: a one-load DEM job answered through the patch basis
+  /// (prepared on the first wrench on a patch), or nothing when it does not apply.
+  std::optional<demnerf::mechanics::SimulationOutcome> solveWithPatchBasis(
+      const SolveJob& job, const demnerf::mechanics::SolveControl& control, std::string& how);
   /// A new ~rendered subscriber gets the latest result rendered at once.
   void onRenderSubscriber(const image_transport::SingleSubscriberPublisher&);
   bool solve(dem_nerf::Solve::Request& request, dem_nerf::Solve::Response& response);
@@ -152,6 +157,10 @@ class DemNode {
   std::unique_ptr<demnerf::mechanics::DemSession> dem_session_;
   std::uint64_t session_generation_ = 0;
   std::uint64_t session_model_generation_ = 0;  ///< the live settings' model_generation it was made for
+  // The patch basis (worker thread only): its range (force 0: off) and what it was prepared for.
+  demnerf::mechanics::PatchResponseConfig patch_basis_config_{0.0, 0.0, true};
+  std::unique_ptr<demnerf::mechanics::PatchResponse> patch_basis_;
+  std::uint64_t patch_basis_cloud_ = 0, patch_basis_model_ = 0;
 
   std::unique_ptr<LatestWinsWorker<RenderJob>> render_worker_;
   std::unique_ptr<LatestWinsWorker<SolveJob>> worker_;

@@ -51,6 +51,9 @@ class PatchResponse {
 
   /// Whether the wrench lies in the prepared range (each component within its bound).
   bool covers(const Eigen::Vector3d& force, const Eigen::Vector3d& torque) const;
+  /// Whether `scenario` is this problem with some wrench on the patch: the same material, body
+  /// force and fixtures as the base, and one load whose region is the patch.
+  bool answersFor(const core::Scenario& scenario) const;
   /// The superposed displacement field (core::Error when not prepared or out of range).
   core::ResultField superpose(const Eigen::Vector3d& force, const Eigen::Vector3d& torque) const;
   /// The scenario of this wrench on the patch (base material and fixtures).
@@ -71,7 +74,8 @@ class PatchResponse {
   PatchResponseConfig config_;
   std::unique_ptr<DemSolver> solver_;  ///< kept for warm starts
   std::vector<Eigen::MatrixXd> linear_, quadratic_;  ///< per component k: particles x 3, per unit (N or N m)
-  std::vector<Eigen::MatrixXd> cross_;  ///< per pair (i < j, row-major order): particles x 3 per unit^2
+  std::vector<Eigen::MatrixXd> cross_;
+  Eigen::MatrixXd rest_;  ///< the base's own answer without wrench (zero unless it has body force or moved fixtures)  ///< per pair (i < j, row-major order): particles x 3 per unit^2
   int solves_ = 0;
   double preparation_seconds_ = 0.0;
 };
