@@ -52,3 +52,7 @@ if(CMAKE_SOURCE_DIR STREQUAL DEMNERF_ROOT_DIR)
 else()
   demnerf_mechanics_matrix_bench()  # standalone mechanics build: only when render was added too
 endif()
+add_executable(mechanics_patch_response ${CMAKE_CURRENT_LIST_DIR}/mechanics_patch_response.cpp)
+target_link_libraries(mechanics_patch_response PRIVATE demnerf_mechanics)
+target_compile_definitions(mechanics_patch_response PRIVATE DEMNERF_ROOT="${DEMNERF_ROOT_DIR}")
+set_target_properties(mechanics_patch_response PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin/bench")

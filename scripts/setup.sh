@@ -13,6 +13,8 @@ PACKAGES=(
   libtf2-ros-dev libtf2-eigen-dev libtf2-geometry-msgs-dev libtf2-msgs-dev python3-tf2-ros
   libimage-transport-dev libcv-bridge-dev libpcl-conversions-dev libdiagnostic-updater-dev
   rviz
+  # dem_node's live settings and interactive push
+  libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure libinteractive-markers-dev
   # numerics, learning, geometry, vision
   libtorch-dev libopenblas0-pthread libeigen3-dev libpcl-dev libopencv-dev libcgal-dev
   libyaml-cpp-dev nlohmann-json3-dev

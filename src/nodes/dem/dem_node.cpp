@@ -4,7 +4,6 @@
 #include <dem_nerf/TrainingStatus.h>
 #include <sensor_msgs/image_encodings.h>
 #include <tf2_eigen/tf2_eigen.h>
-#include <visualization_msgs/MarkerArray.h>
 
 #include <cmath>
 #include <sstream>
@@ -15,6 +14,7 @@
 #include "demnerf/core/error.hpp"
 #include "demnerf/geometry/regions.hpp"
 #include "demnerf/mechanics/boundary_conditions.hpp"
+#include "nodes/dem/result_markers.hpp"
 
 namespace dem_nerf {
 namespace {
@@ -27,64 +27,6 @@ std::string describe(const demnerf::mechanics::SimulationOutcome& outcome) {
   text << outcome.field.size() << " particles, max displacement " << outcome.max_displacement * 1000.0
        << " mm, energy " << outcome.energy << " J, " << outcome.seconds << " s";
   return text.str();
-}
-
-visualization_msgs::Marker regionMarker(const demnerf::core::Region& region, const std::string& frame, int id,
-                                        float r, float g, float b) {
-  visualization_msgs::Marker marker;
-  marker.header.frame_id = frame;
-  marker.header.stamp = ros::Time::now();
-  marker.ns = "fixtures";
-  marker.id = id;
-  marker.action = visualization_msgs::Marker::ADD;
-  marker.pose.position.x = region.center.x();
-  marker.pose.position.y = region.center.y();
-  marker.pose.position.z = region.center.z();
-  marker.pose.orientation.w = 1.0;
-  if (region.type == demnerf::core::Region::Type::kSphere) {
-    marker.type = visualization_msgs::Marker::SPHERE;
-    marker.scale.x = marker.scale.y = marker.scale.z = 2.0 * region.radius;
-  } else {
-    marker.type = visualization_msgs::Marker::CUBE;
-    const Eigen::Vector3d size =
-        region.type == demnerf::core::Region::Type::kBox ? region.size : Eigen::Vector3d::Constant(0.01);
-    marker.scale.x = size.x();
-    marker.scale.y = size.y();
-    marker.scale.z = size.z();
-  }
-  marker.color.r = r;
-  marker.color.g = g;
-  marker.color.b = b;
-  marker.color.a = 0.4f;
-  return marker;
-}
-
-// Force arrows start at the load patch and are drawn 0.05 m long per newton of the largest load.
-visualization_msgs::Marker forceArrow(const demnerf::core::Load& load, const std::string& frame, int id, double scale) {
-  visualization_msgs::Marker marker;
-  marker.header.frame_id = frame;
-  marker.header.stamp = ros::Time::now();
-  marker.ns = "loads";
-  marker.id = id;
-  marker.type = visualization_msgs::Marker::ARROW;
-  marker.action = visualization_msgs::Marker::ADD;
-  marker.pose.orientation.w = 1.0;
-  geometry_msgs::Point tail, head;
-  tail.x = load.region.center.x();
-  tail.y = load.region.center.y();
-  tail.z = load.region.center.z();
-  const Eigen::Vector3d tip = load.region.center + scale * load.force;
-  head.x = tip.x();
-  head.y = tip.y();
-  head.z = tip.z();
-  marker.points = {tail, head};
-  marker.scale.x = 0.005;
-  marker.scale.y = 0.01;
-  marker.scale.z = 0.015;
-  marker.color.r = 1.0f;
-  marker.color.g = 0.3f;
-  marker.color.a = 1.0f;
-  return marker;
 }
 
 // True when nothing drives a deformation: no force, torque, body force or prescribed displacement.
@@ -131,7 +73,7 @@ demnerf::mechanics::SimulationOutcome zeroOutcome(const demnerf::core::ParticleC
 }  // namespace
 
 DemNode::DemNode(ros::NodeHandle node, ros::NodeHandle private_node, const DemNodeConfig& config)
-    : config_(config), solver_(demnerf::mechanics::parseSolverChoice(config.solver)), tf_listener_(tf_buffer_) {
+    : config_(config), tf_listener_(tf_buffer_) {
   status_publisher_ = private_node.advertise<dem_nerf::TrainingStatus>("status", 10, true);
   displaced_publisher_ = private_node.advertise<sensor_msgs::PointCloud2>("displaced", 1, true);
   markers_publisher_ = private_node.advertise<visualization_msgs::MarkerArray>("markers", 1, true);
@@ -155,6 +97,7 @@ DemNode::DemNode(ros::NodeHandle node, ros::NodeHandle private_node, const DemNo
       reportError("scenario", error.what());
     }
   }
+  startLiveSettings(private_node);  // before anything can ask for a solve
   ros::NodeHandle service_node(private_node);
   service_node.setCallbackQueue(&service_queue_);
   solve_service_ = service_node.advertiseService("solve", &DemNode::solve, this);
@@ -168,7 +111,7 @@ DemNode::DemNode(ros::NodeHandle node, ros::NodeHandle private_node, const DemNo
   render_camera_info_subscriber_ =
       private_node.subscribe("render_camera_info", 1, &DemNode::onRenderCameraInfo, this);
   status_timer_ = private_node.createTimer(ros::Duration(1.0), &DemNode::publishPeriodicStatus, this);
-  ROS_INFO("dem_node: solver %s, scenario '%s'", demnerf::mechanics::solverName(solver_), config_.scenario.c_str());
+  ROS_INFO("dem_node: solver %s, scenario '%s'", config_.solver.c_str(), config_.scenario.c_str());
 }
 
 DemNode::~DemNode() {
@@ -186,11 +129,14 @@ void DemNode::onParticles(const sensor_msgs::PointCloud2ConstPtr& message) {
         particlesFromPointCloud2(*message, static_cast<std::uint64_t>(config_.max_particles));
     toParticlesFrame(cloud, message->header);
     checkSpread(cloud);
+    demnerf::core::Scenario scenario;
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      particles_ = std::move(cloud);
+      particles_ = cloud;
       ++particles_generation_;
+      scenario = scenario_;
     }
+    if (push_) push_->setBody(cloud, scenario);
     requestSolve("new particles");
   } catch (const std::exception& error) {  // core::Error from the checks; bad_alloc; tf
     reportError("particles", std::string("particles rejected: ") + error.what());
@@ -436,6 +382,8 @@ void DemNode::requestSolve(const std::string& cause) {
     job.scenario = scenario_;
     stage_ = "solving";
   }
+  job.settings = live_->current();
+  job.settings.applyTo(job.scenario, /*scale_loads=*/true);
   job.cause = cause;
   submitSolve(std::move(job));
 }
@@ -470,7 +418,12 @@ void DemNode::submitSolve(SolveJob job) {
 demnerf::mechanics::SimulationOutcome DemNode::solveWithSession(const SolveJob& job,
                                                                const demnerf::mechanics::SolveControl& control,
                                                                std::string& how) {
-  if (!dem_session_) dem_session_ = std::make_unique<demnerf::mechanics::DemSession>(config_.simulateOptions().dem);
+  // Live settings that change the material or the DEM's settings need a new DEM.
+  if (!dem_session_ || session_model_generation_ != job.settings.model_generation) {
+    dem_session_ = std::make_unique<demnerf::mechanics::DemSession>(job.settings.options.dem);
+    session_model_generation_ = job.settings.model_generation;
+    session_generation_ = 0;  // no cloud yet
+  }
   if (session_generation_ != job.cloud_generation) {
     dem_session_->setParticles(job.cloud);
     session_generation_ = job.cloud_generation;
@@ -488,7 +441,7 @@ demnerf::mechanics::SimulationOutcome DemNode::solveJob(const SolveJob& job, std
     how = "no load: zero displacement";
     return zeroOutcome(job.cloud);
   }
-  demnerf::mechanics::SimulateOptions options = config_.simulateOptions();
+  demnerf::mechanics::SimulateOptions options = job.settings.options;
   options.control.cancel = &cancel_;
   options.control.progress = [this](const demnerf::mechanics::SolveProgress& progress) {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -496,9 +449,10 @@ demnerf::mechanics::SimulationOutcome DemNode::solveJob(const SolveJob& job, std
   };
   // The DEM lives across solves (warm starts; with ~parametric, scaled loads need no training);
   // the baselines solve from scratch.
-  return solver_ == demnerf::mechanics::SolverChoice::kDem
-             ? solveWithSession(job, options.control, how)
-             : demnerf::mechanics::simulate(job.cloud, job.scenario, solver_, options);
+  if (job.settings.solver != demnerf::mechanics::SolverChoice::kDem)
+    return demnerf::mechanics::simulate(job.cloud, job.scenario, job.settings.solver, options);
+  if (auto outcome = solveWithPatchBasis(job, options.control, how)) return *outcome;
+  return solveWithSession(job, options.control, how);
 }
 
 void DemNode::runSolve(const SolveJob& job) {
@@ -517,7 +471,8 @@ void DemNode::runSolve(const SolveJob& job) {
     solve_has_reply_ = job.reply != nullptr;
     solve_started_ = std::chrono::steady_clock::now();
     solve_progress_ = {};
-    solve_progress_.solver = demnerf::mechanics::solverName(solver_);
+    solve_progress_.solver = demnerf::mechanics::solverName(job.settings.solver);
+    solve_time_limit_ = job.settings.options.control.time_limit;
     solve_progress_.phase = "start";
   }
   std::exception_ptr failure;
@@ -567,17 +522,7 @@ void DemNode::publishResult(const demnerf::mechanics::SimulationOutcome& outcome
   header.stamp = ros::Time::now();
   header.frame_id = config_.particles_frame;
   displaced_publisher_.publish(toPointCloud2(outcome.field, header, /*displaced_positions=*/true));
-  visualization_msgs::MarkerArray markers;
-  double largest = 0.0;
-  for (const auto& load : scenario.loads) largest = std::max(largest, load.force.norm());
-  int id = 0;
-  for (const auto& fixture : scenario.fixtures) {
-    markers.markers.push_back(regionMarker(fixture.region, config_.particles_frame, id++, 0.2f, 0.4f, 1.0f));
-  }
-  for (const auto& load : scenario.loads) {
-    markers.markers.push_back(forceArrow(load, config_.particles_frame, id++, largest > 0 ? 0.05 / largest : 0.0));
-  }
-  markers_publisher_.publish(markers);
+  markers_publisher_.publish(resultMarkers(scenario, config_.particles_frame));
   requestRender(outcome.field);
 }
 
@@ -595,6 +540,8 @@ bool DemNode::solve(dem_nerf::Solve::Request& request, dem_nerf::Solve::Response
       job.cloud_generation = particles_generation_;
       stage_ = "solving";
     }
+    job.settings = live_->current();
+    job.settings.applyTo(job.scenario, /*scale_loads=*/false);
     job.cause = "~solve";
     job.reply = std::make_shared<std::promise<demnerf::mechanics::SimulationOutcome>>();
     std::future<demnerf::mechanics::SimulationOutcome> answer = job.reply->get_future();
@@ -647,7 +594,7 @@ void DemNode::publishStatus(const std::string& stage, const std::string& message
   {
     std::lock_guard<std::mutex> lock(mutex_);
     status.solve.running = solve_running_;
-    status.solve.time_limit = config_.solver_options.control.time_limit;
+    status.solve.time_limit = solve_time_limit_;
     if (solve_running_) {
       status.solve.solver = solve_progress_.solver;
       status.solve.phase = solve_progress_.phase;
@@ -680,7 +627,7 @@ void DemNode::publishPeriodicStatus(const ros::TimerEvent&) {
         text << "; solving (" << solve_progress_.phase << ", load " << solve_progress_.load_fraction << ", iteration "
              << solve_progress_.iteration << ", "
              << std::chrono::duration<double>(std::chrono::steady_clock::now() - solve_started_).count() << " s of "
-             << config_.solver_options.control.time_limit << " s)";
+             << solve_time_limit_ << " s)";
         message += text.str();
       }
     }

@@ -30,11 +30,14 @@
 #include "demnerf/core/ply.hpp"
 #include "demnerf/core/scenario.hpp"
 #include "demnerf/mechanics/dem_session.hpp"
+#include "demnerf/mechanics/patch_response.hpp"
 #include "demnerf/mechanics/simulate.hpp"
 #include "demnerf/mechanics/solve_control.hpp"
 #include "nodes/common/rejection_counter.hpp"
 #include "nodes/dem/deformed_view.hpp"
 #include "nodes/dem/dem_node_config.hpp"
+#include "nodes/dem/interactive_push.hpp"
+#include "nodes/dem/live_settings.hpp"
 #include "workers/latest_wins_worker.hpp"
 
 namespace dem_nerf {
@@ -52,6 +55,7 @@ class DemNode {
     std::uint64_t cloud_generation = 0;  ///< which particle message the cloud came from
     demnerf::core::Scenario scenario;
     std::string cause;  ///< "wrench", "load case", ... for the status message
+    LiveSolveSettings settings;  ///< solver, options and material when the job was made
     /// Set for a ~solve call: its caller waits for this (an outcome or the error).
     std::shared_ptr<std::promise<demnerf::mechanics::SimulationOutcome>> reply;
   };
@@ -67,6 +71,16 @@ class DemNode {
   void onLoadCase(const dem_nerf::LoadCaseConstPtr& message);
   void onModel(const dem_nerf::ModelInfoConstPtr& message);
   void onRenderCameraInfo(const sensor_msgs::CameraInfoConstPtr& message);
+  // dem_node_live.cpp: the live settings and, with ~interactive, the push markers.
+  void startLiveSettings(const ros::NodeHandle& private_node);
+  /// The push marker's load becomes the only load, and is solved.
+  void onPushLoad(const demnerf::core::Load& load);
+  /// The fixture box replaces the first fixture when it holds particles, and is solved.
+  void onFixtureBox(const Eigen::Vector3d& center, const Eigen::Vector3d& size);
+  /// With ~patch_basis_force_range: a one-load DEM job answered through the patch basis
+  /// (prepared on the first wrench on a patch), or nothing when it does not apply.
+  std::optional<demnerf::mechanics::SimulationOutcome> solveWithPatchBasis(
+      const SolveJob& job, const demnerf::mechanics::SolveControl& control, std::string& how);
   /// A new ~rendered subscriber gets the latest result rendered at once.
   void onRenderSubscriber(const image_transport::SingleSubscriberPublisher&);
   bool solve(dem_nerf::Solve::Request& request, dem_nerf::Solve::Response& response);
@@ -102,7 +116,6 @@ class DemNode {
   void publishPeriodicStatus(const ros::TimerEvent&);
 
   DemNodeConfig config_;
-  demnerf::mechanics::SolverChoice solver_;
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
   ros::Subscriber particles_subscriber_, fixtures_subscriber_, wrench_subscriber_, load_case_subscriber_,
@@ -133,6 +146,7 @@ class DemNode {
   bool solve_has_reply_ = false;
   std::chrono::steady_clock::time_point solve_started_;
   demnerf::mechanics::SolveProgress solve_progress_;
+  double solve_time_limit_ = 0.0;  ///< of the running (or last) solve, for ~status
   std::optional<SolveJob> deferred_;  ///< a topic's job that waits for a ~solve job to start
 
   DeformedView view_;  ///< only the render worker's thread touches it
@@ -142,6 +156,11 @@ class DemNode {
   // The DEM kept across solves (warm starts, instant parametric answers); worker thread only.
   std::unique_ptr<demnerf::mechanics::DemSession> dem_session_;
   std::uint64_t session_generation_ = 0;
+  std::uint64_t session_model_generation_ = 0;  ///< the live settings' model_generation it was made for
+  // The patch basis (worker thread only): its range (force 0: off) and what it was prepared for.
+  demnerf::mechanics::PatchResponseConfig patch_basis_config_{0.0, 0.0, true};
+  std::unique_ptr<demnerf::mechanics::PatchResponse> patch_basis_;
+  std::uint64_t patch_basis_cloud_ = 0, patch_basis_model_ = 0;
 
   std::unique_ptr<LatestWinsWorker<RenderJob>> render_worker_;
   std::unique_ptr<LatestWinsWorker<SolveJob>> worker_;
@@ -149,6 +168,9 @@ class DemNode {
   // on the global queue never wait behind it. Last: stopped first.
   ros::CallbackQueue service_queue_;
   std::unique_ptr<ros::AsyncSpinner> service_spinner_;
+  // Their callbacks ask for solves: made before the service and the subscribers.
+  std::unique_ptr<LiveSettings> live_;
+  std::unique_ptr<InteractivePush> push_;  ///< only with ~interactive
 };
 
 }  // namespace dem_nerf
