@@ -30,7 +30,10 @@ struct FieldConfig {
 
 /// Occupancy grid over the scene box: EMA of optical thickness, bitfield, instant-ngp schedule.
 struct OccupancyConfig {
-  int resolution = 64;          ///< cells per axis
+  int resolution = 64;          ///< cells per axis (of each cascade)
+  /// Nested grids, each twice the extent of the one inside (instant-ngp's cascades for
+  /// unbounded scenes); 0: 1 + log2(aabb_scale), so 1 for a bounded scene, 3 for the fox.
+  int cascades = 0;
   int update_interval = 16;     ///< training steps between updates
   int warmup_steps = 256;       ///< until then every cell is re-sampled at each update
   double decay = 0.95;          ///< EMA decay of the stored thickness

@@ -12,6 +12,7 @@ namespace demnerf::nerf {
 /// Step sizes in metres, derived from the config and the box.
 struct MarchParams {
   float min_step = 0, max_step = 0, cone_angle = 0, near = 0;
+  float max_step_cells = 1;  ///< the largest step in a cascade, in that cascade's cells
   int max_samples = 0;
   static MarchParams make(const MarchConfig& config, const Box& bounds, double aabb_scale, int grid_resolution);
 };
