@@ -41,6 +41,7 @@ std::vector<Entry> entries(NerfConfig& c) {
       {"field", "sh_degree", &c.field.sh_degree},
       {"occupancy", "resolution", &c.occupancy.resolution},
       {"occupancy", "cascades", &c.occupancy.cascades},
+      {"occupancy", "cull_unseen", &c.occupancy.cull_unseen},
       {"occupancy", "update_interval", &c.occupancy.update_interval},
       {"occupancy", "warmup_steps", &c.occupancy.warmup_steps},
       {"occupancy", "decay", &c.occupancy.decay},
@@ -52,6 +53,8 @@ std::vector<Entry> entries(NerfConfig& c) {
       {"march", "near", &c.march.near},
       {"march", "min_transmittance", &c.march.min_transmittance},
       {"march", "samples_per_round", &c.march.samples_per_round},
+      {"march", "render_cone_angle", &c.march.render_cone_angle},
+      {"march", "render_min_transmittance", &c.march.render_min_transmittance},
       {"train", "learning_rate", &c.train.learning_rate},
       {"train", "final_learning_rate_ratio", &c.train.final_learning_rate_ratio},
       {"train", "decay_start", &c.train.decay_start},
@@ -104,6 +107,7 @@ void NerfConfig::validate() const {
   check(march.near >= 0, "march.near must be >= 0");
   check(march.max_step_cells > 0, "march.max_step_cells must be > 0");
   check(march.min_transmittance >= 0 && march.min_transmittance < 1, "march.min_transmittance must be in [0, 1)");
+  check(march.render_min_transmittance < 1, "march.render_min_transmittance must be < 1 (< 0: auto)");
   check(train.learning_rate > 0 && std::isfinite(train.learning_rate), "train.learning_rate must be > 0");
   check(train.final_learning_rate_ratio > 0 && train.final_learning_rate_ratio <= 1,
         "train.final_learning_rate_ratio must be in (0, 1]");

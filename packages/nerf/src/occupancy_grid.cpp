@@ -220,7 +220,8 @@ void OccupancyGrid::setVisibility(const std::vector<GridCamera>& cameras) {
   const std::vector<std::uint8_t> before = used_;
   markCovered();
   const std::int64_t per = cellsPerCascade();
-  at::parallel_for(0, cameras.empty() ? 0 : cells(), 4096, [&](std::int64_t begin, std::int64_t end) {
+  const bool cull = config_.cull_unseen && !cameras.empty();
+  at::parallel_for(0, cull ? cells() : 0, 4096, [&](std::int64_t begin, std::int64_t end) {
     for (std::int64_t c = begin; c < end; ++c) {
       if (!used_[c]) continue;
       float p[3];

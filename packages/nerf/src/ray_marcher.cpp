@@ -19,7 +19,19 @@ MarchParams MarchParams::make(const MarchConfig& config, const Box& bounds, doub
   p.max_step_cells = static_cast<float>(config.max_step_cells);
   p.cone_angle = static_cast<float>(config.cone_angle >= 0 ? config.cone_angle : (aabb_scale > 1.0 ? 1.0 / 256 : 0.0));
   p.near = static_cast<float>(config.near);
+  p.min_transmittance = static_cast<float>(config.min_transmittance);
   p.max_samples = config.max_samples;
+  return p;
+}
+
+MarchParams MarchParams::makeRender(const MarchConfig& config, const Box& bounds, double aabb_scale,
+                                    int grid_resolution) {
+  MarchParams p = make(config, bounds, aabb_scale, grid_resolution);
+  const bool unbounded = aabb_scale > 1.0;
+  if (config.render_cone_angle >= 0) p.cone_angle = static_cast<float>(config.render_cone_angle);
+  else if (unbounded) p.cone_angle = std::max(p.cone_angle, 1.0f / 64);
+  if (config.render_min_transmittance >= 0) p.min_transmittance = static_cast<float>(config.render_min_transmittance);
+  else if (unbounded) p.min_transmittance = std::max(p.min_transmittance, 0.01f);
   return p;
 }
 

@@ -71,6 +71,8 @@ std::vector<float> march(const MarchParams& params, const OccupancyGrid& grid, c
 
 TEST(Occupancy, CascadeCountFollowsTheSceneExtent) {
   OccupancyConfig config;
+  EXPECT_EQ(cascadeCount(config, 4.0), 1);  // the default: one grid
+  config.cascades = 0;
   EXPECT_EQ(cascadeCount(config, 1.0), 1);
   EXPECT_EQ(cascadeCount(config, 2.0), 2);
   EXPECT_EQ(cascadeCount(config, 4.0), 3);
@@ -145,7 +147,9 @@ TEST(Occupancy, CascadesMarchOnlyNearTheBallAndStepsGrowOutwards) {
 }
 
 TEST(Occupancy, CellsNoCameraSeesStayEmpty) {
-  OccupancyGrid grid(smallGrid(), cube(4.0f), 0.01f, 3);
+  OccupancyConfig config = smallGrid();
+  config.cull_unseen = true;
+  OccupancyGrid grid(config, cube(4.0f), 0.01f, 3);
   // One camera at -x looking along +x (optical z), a narrow 20 x 20 px view.
   GridCamera camera{};
   const float rotation[9] = {0, 0, 1, 0, 1, 0, -1, 0, 0};  // columns: x_cam = -z, y_cam = y, z_cam = +x
@@ -173,6 +177,7 @@ TEST(Occupancy, CellsNoCameraSeesStayEmpty) {
 
 TEST(Occupancy, CascadedModelsRoundTripAndOldFilesHoldOneGrid) {
   NerfConfig config;
+  config.occupancy.cascades = 0;  // from aabb_scale
   config.occupancy.resolution = 16;
   config.hash.log2_table_size = 10;
   const NerfModel model(config, cube(6.0f), 4.0);

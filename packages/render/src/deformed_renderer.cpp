@@ -201,10 +201,10 @@ nerf::RenderedImage renderDeformed(const DeformedScene& scene, const core::Pinho
   const nerf::NgpField& field = model.field();
   const nerf::OccupancyGrid& rest_grid = model.grid();
   const TetEmbedding& emb = scene.embedding();
-  const nerf::MarchParams& mp = model.march();
+  const nerf::MarchParams& mp = model.renderMarch();  // as the undeformed renderer marches
   const nerf::MarchConfig& mc = model.config().march;
   const bool rotate = scene.config().rotate_directions;
-  const float min_t = static_cast<float>(mc.min_transmittance);
+  const float min_t = mp.min_transmittance;
   const int w = camera.width, h = camera.height;
   const std::int64_t n = static_cast<std::int64_t>(w) * h;
   const Eigen::Matrix3d rot = world_from_camera.linear();
