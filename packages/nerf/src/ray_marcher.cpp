@@ -29,7 +29,7 @@ MarchParams MarchParams::makeRender(const MarchConfig& config, const Box& bounds
   MarchParams p = make(config, bounds, aabb_scale, grid_resolution);
   const bool unbounded = aabb_scale > 1.0;
   if (config.render_cone_angle >= 0) p.cone_angle = static_cast<float>(config.render_cone_angle);
-  else if (unbounded) p.cone_angle = std::max(p.cone_angle, 1.0f / 64);
+  else if (unbounded) p.cone_angle = std::max(p.cone_angle, 1.0f / 128);
   if (config.render_min_transmittance >= 0) p.min_transmittance = static_cast<float>(config.render_min_transmittance);
   else if (unbounded) p.min_transmittance = std::max(p.min_transmittance, 0.01f);
   return p;
