@@ -3,6 +3,8 @@
 // the time goes.
 //   nerf_train --data DIR [--seconds 60] [--downscale 1] [--config nerf.yaml]
 //              [--eval-every 10] [--csv curve.csv] [--plot curve.png] [--model out.nerf]
+//              [--iterations N]   (a fixed number of steps instead of seconds: compares
+//                                  configurations on a loaded machine)
 
 #include <chrono>
 #include <cstdio>
@@ -78,7 +80,12 @@ int main(int argc, char** argv) {
     std::vector<Row> rows;
     double trained = 0;
     nerf::TrainProgress last;
-    while (trained < seconds - 1e-6) {
+    const long long iterations = std::stoll(get("iterations", "0"));
+    if (iterations > 0) {
+      last = trainer.train({0, iterations}, {}, true, 5.0);
+      trained = last.seconds;
+    }
+    while (iterations == 0 && trained < seconds - 1e-6) {
       const double slice = std::min(eval_every, seconds - trained);
       // The schedule decays over the whole run, not the slice.
       last = trainer.train({slice, 0}, {}, true, 5.0);
@@ -92,9 +99,10 @@ int main(int argc, char** argv) {
     }
     const nerf::Evaluation final_eval = nerf::evaluate(trainer.model(), dataset.test, true);
     const nerf::StepTimes& t = trainer.times();
-    std::printf("trained_seconds %.2f\niterations %lld\ntest_psnr %.3f\ntest_ssim %.4f\nrender_seconds_per_view %.3f\n",
+    std::printf("trained_seconds %.2f\niterations %lld\ntest_psnr %.3f\ntest_ssim %.4f\nrender_seconds_per_view %.3f\n"
+                "render_samples_per_pixel %.1f\noccupied_fraction %.4f\n",
                 trained, static_cast<long long>(trainer.iteration()), final_eval.psnr, final_eval.ssim,
-                final_eval.seconds_per_view);
+                final_eval.seconds_per_view, final_eval.samples_per_pixel, last.occupied_fraction);
     std::printf("rays_per_second %.0f\nsamples_per_second %.0f\nsamples_per_ray %.1f\n", last.rays_per_second,
                 last.samples_per_second, last.samples_per_ray);
     std::printf("time_march %.2f\ntime_forward %.2f\ntime_backward_mlp %.2f\ntime_backward_table %.2f\ntime_optimizer %.2f\n"

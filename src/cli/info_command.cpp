@@ -13,7 +13,8 @@ Figures runInfo(const Arguments& arguments) {
   const core::Dataset dataset = core::loadDataset(arguments.text("data"), options);
   const core::PinholeCamera& camera = dataset.train.front().camera;
   const auto& box = dataset.bounds;
-  return {{"train_views", dataset.train.size()},
+  return {{"layout", dataset.layout},
+          {"train_views", dataset.train.size()},
           {"test_views", dataset.test.size()},
           {"missing_images", dataset.missing_images.size()},
           {"width", camera.width},

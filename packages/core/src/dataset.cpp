@@ -8,6 +8,7 @@
 
 #include "demnerf/core/error.hpp"
 #include "demnerf/core/pose.hpp"
+#include "detail/dataset_layouts.hpp"
 
 namespace demnerf::core {
 namespace {
@@ -73,7 +74,8 @@ PinholeCamera readCamera(const Json& frame, const Json& top, const fs::path& fil
       camera.fy = 0.5 * camera.height / std::tan(0.5 * numberOr(frame, top, "camera_angle_y", 0.0, file));
     }
   } else {
-    throw Error("'" + file.string() + "': no focal length (need fl_x or camera_angle_x)");
+    throw Error("'" + file.string() + "': no focal length (need fl_x, per frame or at the top level, or "
+                "camera_angle_x). Accepted: " + detail::kAcceptedLayouts);
   }
   camera.cx = numberOr(frame, top, "cx", 0.5 * camera.width, file);
   camera.cy = numberOr(frame, top, "cy", 0.5 * camera.height, file);
@@ -107,7 +109,8 @@ std::vector<Frame> readFrames(const fs::path& file, const DatasetOptions& option
                               std::vector<std::string>* missing) {
   const Json top = readJson(file);
   if (!top.is_object() || !top.contains("frames") || !top["frames"].is_array()) {
-    throw Error("'" + file.string() + "': expected an object with a 'frames' array");
+    throw Error("'" + file.string() + "': expected an object with a 'frames' array. Accepted: " +
+                detail::kAcceptedLayouts);
   }
   if (top["frames"].empty()) throw Error("'" + file.string() + "': 'frames' is empty");
   const fs::path root = file.parent_path();
@@ -125,6 +128,7 @@ std::vector<Frame> readFrames(const fs::path& file, const DatasetOptions& option
       continue;
     }
     frame.world_from_camera = readPose(entry, file, i);
+    detail::checkCameraModel(entry, top, file, i);
     cv::Size image_size(0, 0);
     if (options.load_images) {
       frame.rgba = readImageRgba(image_path.string(), &frame.has_alpha);
@@ -235,9 +239,11 @@ Dataset loadDataset(const std::string& directory, const DatasetOptions& options)
       (held_out ? dataset.test : dataset.train).push_back(std::move(all[i]));
     }
   } else {
-    throw Error("no transforms.json or transforms_train.json in '" + directory + "'");
+    throw Error(detail::unknownLayoutMessage(root));
   }
   const fs::path file = root / (fs::exists(root / "transforms_train.json") ? "transforms_train.json" : "transforms.json");
+  dataset.layout = detail::detectLayout(top, file.filename().string());
+  dataset.applied_transform = detail::readAppliedTransform(top, file);
   dataset.aabb_scale = top.contains("aabb_scale") ? number(top, "aabb_scale", file) : 1.0;
   dataset.bounds = sceneBounds(top, dataset.train, dataset.aabb_scale, file);
   return dataset;

@@ -40,6 +40,8 @@ std::vector<Entry> entries(NerfConfig& c) {
       {"field", "color_layers", &c.field.color_layers},
       {"field", "sh_degree", &c.field.sh_degree},
       {"occupancy", "resolution", &c.occupancy.resolution},
+      {"occupancy", "cascades", &c.occupancy.cascades},
+      {"occupancy", "cull_unseen", &c.occupancy.cull_unseen},
       {"occupancy", "update_interval", &c.occupancy.update_interval},
       {"occupancy", "warmup_steps", &c.occupancy.warmup_steps},
       {"occupancy", "decay", &c.occupancy.decay},
@@ -51,6 +53,8 @@ std::vector<Entry> entries(NerfConfig& c) {
       {"march", "near", &c.march.near},
       {"march", "min_transmittance", &c.march.min_transmittance},
       {"march", "samples_per_round", &c.march.samples_per_round},
+      {"march", "render_cone_angle", &c.march.render_cone_angle},
+      {"march", "render_min_transmittance", &c.march.render_min_transmittance},
       {"train", "learning_rate", &c.train.learning_rate},
       {"train", "final_learning_rate_ratio", &c.train.final_learning_rate_ratio},
       {"train", "decay_start", &c.train.decay_start},
@@ -92,6 +96,8 @@ void NerfConfig::validate() const {
   check(field.sh_degree >= 1 && field.sh_degree <= 4, "field.sh_degree must be in [1, 4], got " + std::to_string(field.sh_degree));
   check(occupancy.resolution >= 8 && occupancy.resolution <= 512 && occupancy.resolution % 8 == 0,
         "occupancy.resolution must be a multiple of 8 in [8, 512], got " + std::to_string(occupancy.resolution));
+  check(occupancy.cascades >= 0 && occupancy.cascades <= 8,
+        "occupancy.cascades must be in [0, 8] (0: from aabb_scale), got " + std::to_string(occupancy.cascades));
   check(occupancy.update_interval >= 1, "occupancy.update_interval must be >= 1");
   check(occupancy.decay > 0 && occupancy.decay <= 1, "occupancy.decay must be in (0, 1]");
   check(occupancy.threshold >= 0, "occupancy.threshold must be >= 0");
@@ -101,6 +107,7 @@ void NerfConfig::validate() const {
   check(march.near >= 0, "march.near must be >= 0");
   check(march.max_step_cells > 0, "march.max_step_cells must be > 0");
   check(march.min_transmittance >= 0 && march.min_transmittance < 1, "march.min_transmittance must be in [0, 1)");
+  check(march.render_min_transmittance < 1, "march.render_min_transmittance must be < 1 (< 0: auto)");
   check(train.learning_rate > 0 && std::isfinite(train.learning_rate), "train.learning_rate must be > 0");
   check(train.final_learning_rate_ratio > 0 && train.final_learning_rate_ratio <= 1,
         "train.final_learning_rate_ratio must be in (0, 1]");
@@ -177,6 +184,8 @@ NerfConfig nerfConfigFromJson(const nlohmann::json& json) {
       if (!json.contains(e.section) || !json[e.section].contains(e.key)) continue;  // older files: default
       std::visit([&](auto* field) { json[e.section][e.key].get_to(*field); }, e.value);
     }
+    // Model files written before cascades existed hold a single grid.
+    if (!json.contains("occupancy") || !json["occupancy"].contains("cascades")) config.occupancy.cascades = 1;
     if (json.contains("background")) {
       for (int i = 0; i < 3; ++i) config.background[i] = json["background"].at(i).get<double>();
     }

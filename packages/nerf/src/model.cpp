@@ -6,8 +6,9 @@ namespace demnerf::nerf {
 
 NerfModel::NerfModel(const NerfConfig& config, const Box& bounds, double aabb_scale)
     : field_(config, bounds, aabb_scale, config.train.seed),
-      march_(MarchParams::make(config.march, bounds, aabb_scale, config.occupancy.resolution)) {
-  grid_ = OccupancyGrid(config.occupancy, bounds, march_.min_step);
+      march_(MarchParams::make(config.march, bounds, aabb_scale, config.occupancy.resolution)),
+      render_march_(MarchParams::makeRender(config.march, bounds, aabb_scale, config.occupancy.resolution)) {
+  grid_ = OccupancyGrid(config.occupancy, bounds, march_.min_step, cascadeCount(config.occupancy, aabb_scale));
 }
 
 std::vector<float> NerfModel::densityGrid(int resolution) const {

@@ -42,7 +42,7 @@ struct RayAccum {
 int marchAndEvaluate(const NerfModel& model, std::vector<RayCursor>& cursors, int rays, int per_ray, Round& round,
                      FieldWorkspace& ws, double* march_seconds = nullptr) {
   const auto start = Clock::now();
-  const MarchParams& mp = model.march();
+  const MarchParams& mp = model.renderMarch();
   int total = 0;
   for (int j = 0; j < rays; ++j) {
     round.first[j] = total;
@@ -72,7 +72,7 @@ int marchAndEvaluate(const NerfModel& model, std::vector<RayCursor>& cursors, in
 std::int64_t renderRays(const NerfModel& model, const float* origins, const float* directions, std::int64_t n,
                         const float* background, const RenderOutputs& out) {
   const MarchConfig& mc = model.config().march;
-  const float min_t = static_cast<float>(mc.min_transmittance);
+  const float min_t = model.renderMarch().min_transmittance;
   const std::int64_t blocks = (n + kBlockRays - 1) / kBlockRays;
   std::vector<std::int64_t> samples_per_block(blocks, 0);
   at::parallel_for(0, blocks, 1, [&](std::int64_t begin, std::int64_t end) {
@@ -86,7 +86,7 @@ std::int64_t renderRays(const NerfModel& model, const float* origins, const floa
       const std::int64_t first = b * kBlockRays;
       const int rays = static_cast<int>(std::min<std::int64_t>(kBlockRays, n - first));
       for (int j = 0; j < rays; ++j) {
-        startRay(model.march(), model.bounds(), origins + 3 * (first + j), directions + 3 * (first + j), 0.5f,
+        startRay(model.renderMarch(), model.bounds(), origins + 3 * (first + j), directions + 3 * (first + j), 0.5f,
                  cursors[j]);
         acc[j] = RayAccum();
       }

@@ -16,9 +16,22 @@ MarchParams MarchParams::make(const MarchConfig& config, const Box& bounds, doub
   diagonal = std::sqrt(diagonal);
   p.min_step = static_cast<float>(diagonal / config.steps_per_diagonal);
   p.max_step = static_cast<float>(std::max<double>(p.min_step, config.max_step_cells * smallest_cell));
+  p.max_step_cells = static_cast<float>(config.max_step_cells);
   p.cone_angle = static_cast<float>(config.cone_angle >= 0 ? config.cone_angle : (aabb_scale > 1.0 ? 1.0 / 256 : 0.0));
   p.near = static_cast<float>(config.near);
+  p.min_transmittance = static_cast<float>(config.min_transmittance);
   p.max_samples = config.max_samples;
+  return p;
+}
+
+MarchParams MarchParams::makeRender(const MarchConfig& config, const Box& bounds, double aabb_scale,
+                                    int grid_resolution) {
+  MarchParams p = make(config, bounds, aabb_scale, grid_resolution);
+  const bool unbounded = aabb_scale > 1.0;
+  if (config.render_cone_angle >= 0) p.cone_angle = static_cast<float>(config.render_cone_angle);
+  else if (unbounded) p.cone_angle = std::max(p.cone_angle, 1.0f / 128);
+  if (config.render_min_transmittance >= 0) p.min_transmittance = static_cast<float>(config.render_min_transmittance);
+  else if (unbounded) p.min_transmittance = std::max(p.min_transmittance, 0.01f);
   return p;
 }
 
@@ -44,12 +57,12 @@ void startRay(const MarchParams& params, const Box& bounds, const float* origin,
 
 int marchRay(const MarchParams& params, const OccupancyGrid& grid, RayCursor& c, int count, float* positions,
              float* t_out, float* dt_out) {
-  const Box& box = grid.bounds();
-  const int res = grid.resolution();
-  float cell_size[3], inv_dir[3];
-  for (int a = 0; a < 3; ++a) {
-    cell_size[a] = box.size(a) / res;
-    inv_dir[a] = 1.0f / c.direction[a];
+  float inv_dir[3];
+  for (int a = 0; a < 3; ++a) inv_dir[a] = 1.0f / c.direction[a];
+  // Largest step per cascade: cells double in size outwards, and so may the steps.
+  float max_step[8];
+  for (int k = 0; k < grid.cascades() && k < 8; ++k) {
+    max_step[k] = std::max(params.min_step, params.max_step_cells * grid.cellSize(k));
   }
   int produced = 0;
   float t = c.t;
@@ -58,9 +71,12 @@ int marchRay(const MarchParams& params, const OccupancyGrid& grid, RayCursor& c,
       c.done = true;
       break;
     }
-    const float dt = std::min(std::max(t * params.cone_angle, params.min_step), params.max_step);
-    const float mid = t + 0.5f * dt;
+    // The cascade where the step starts sets its largest size.
     float p[3];
+    for (int a = 0; a < 3; ++a) p[a] = c.origin[a] + t * c.direction[a];
+    const int k = grid.cascadeOf(p);
+    const float dt = std::min(std::max(t * params.cone_angle, params.min_step), max_step[k < 0 ? 0 : k]);
+    const float mid = t + 0.5f * dt;
     for (int a = 0; a < 3; ++a) p[a] = c.origin[a] + mid * c.direction[a];
     const std::int64_t cell = grid.cellOf(p);
     if (cell < 0) {
@@ -77,15 +93,8 @@ int marchRay(const MarchParams& params, const OccupancyGrid& grid, RayCursor& c,
       continue;
     }
     // Empty cell: jump to where the ray leaves it, then keep stepping on the step grid.
-    float t_exit = std::numeric_limits<float>::max();
-    for (int a = 0; a < 3; ++a) {
-      if (c.direction[a] == 0.0f) continue;
-      const float u = (p[a] - box.min[a]) / cell_size[a];
-      const float index = std::floor(std::min(std::max(u, 0.0f), static_cast<float>(res) - 1e-3f));
-      const float boundary = box.min[a] + (c.direction[a] > 0 ? index + 1.0f : index) * cell_size[a];
-      t_exit = std::min(t_exit, (boundary - c.origin[a]) * inv_dir[a]);
-    }
-    const float next = std::max(t_exit, mid);
+    const int cascade = static_cast<int>(cell / grid.cellsPerCascade());
+    const float next = std::max(grid.cellExit(cascade, p, c.origin, inv_dir), mid);
     t += std::ceil((next - t) / dt) * dt;  // whole steps keep samples aligned with the jitter
   }
   c.t = t;

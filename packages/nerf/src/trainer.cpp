@@ -115,6 +115,7 @@ void Trainer::addFrame(const core::Frame& frame) {
   frames_.push_back(stored);
   const std::int64_t previous = pixel_offsets_.empty() ? 0 : pixel_offsets_.back();
   pixel_offsets_.push_back(previous + static_cast<std::int64_t>(stored->width) * stored->height);
+  ++frames_version_;
   evictRedundantFrames();
 }
 
@@ -150,6 +151,7 @@ void Trainer::evictRedundantFrames() {
         }
       }
     frames_.erase(frames_.begin() + static_cast<std::ptrdiff_t>(evict));
+    ++frames_version_;
   }
   pixel_offsets_.clear();
   std::int64_t total = 0;
@@ -223,9 +225,34 @@ double Trainer::learningRate() const {
   return t.learning_rate * std::pow(t.final_learning_rate_ratio, x);
 }
 
+void Trainer::refreshVisibility() {
+  std::vector<GridCamera> cameras;
+  {
+    std::lock_guard<std::mutex> lock(frames_mutex_);
+    if (frames_version_ == visibility_version_) return;
+    visibility_version_ = frames_version_;
+    for (const auto& frame : frames_) {
+      GridCamera camera;
+      std::copy(frame->rotation, frame->rotation + 9, camera.rotation);
+      std::copy(frame->origin, frame->origin + 3, camera.origin);
+      camera.fx = static_cast<float>(frame->camera.fx);
+      camera.fy = static_cast<float>(frame->camera.fy);
+      camera.cx = static_cast<float>(frame->camera.cx);
+      camera.cy = static_cast<float>(frame->camera.cy);
+      camera.width = frame->width;
+      camera.height = frame->height;
+      cameras.push_back(camera);
+    }
+  }
+  std::lock_guard<std::mutex> lock(model_mutex_);
+  model_->grid().setVisibility(cameras);
+}
+
 StepResult Trainer::step(int iterations) {
   StepResult last;
   for (int i = 0; i < iterations; ++i) {
+    // The cells the cameras see change with the frame set; checked on the occupancy schedule.
+    if (engine_->iteration() % config_.occupancy.update_interval == 0) refreshVisibility();
     const TrainConfig& t = config_.train;
     const std::int64_t rays = std::clamp<std::int64_t>(
         static_cast<std::int64_t>(t.target_samples / std::max(1.0, samples_per_ray_)), t.min_rays, t.max_rays);

@@ -114,8 +114,8 @@ nerf::Box sceneBox(const nerf::NerfModel& model, const TetEmbedding& embedding, 
 void rasterise(const nerf::NerfModel& model, const TetEmbedding& emb, nerf::OccupancyGrid& grid) {
   std::fill(grid.bits().begin(), grid.bits().end(), 0);
   const nerf::OccupancyGrid& rest_grid = model.grid();
-  const int rr = rest_grid.resolution(), r = grid.resolution();
-  const nerf::Box &rb = rest_grid.bounds(), &b = grid.bounds();
+  const int r = grid.resolution();
+  const nerf::Box& b = grid.bounds();
   const double margin = emb.margin();
   auto cells = [](const nerf::Box& box, int res, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int* from,
                   int* to) {
@@ -136,14 +136,10 @@ void rasterise(const nerf::NerfModel& model, const TetEmbedding& emb, nerf::Occu
     }
     lo.array() -= margin;
     hi.array() += margin;
+    const float rest_lo[3] = {float(lo.x()), float(lo.y()), float(lo.z())};
+    const float rest_hi[3] = {float(hi.x()), float(hi.y()), float(hi.z())};
+    if (!rest_grid.anyOccupied(rest_lo, rest_hi)) continue;
     int from[3], to[3];
-    cells(rb, rr, lo, hi, from, to);
-    bool any = false;
-    for (int z = from[2]; z <= to[2] && !any; ++z)
-      for (int y = from[1]; y <= to[1] && !any; ++y)
-        for (int x = from[0]; x <= to[0] && !any; ++x)
-          any = rest_grid.occupied((static_cast<std::int64_t>(z) * rr + y) * rr + x);
-    if (!any) continue;
     dlo.array() -= margin;
     dhi.array() += margin;
     cells(b, r, dlo, dhi, from, to);
@@ -192,7 +188,8 @@ DeformedScene::DeformedScene(const nerf::NerfModel& model, const core::ResultFie
   const nerf::Box box = sceneBox(model, embedding_, resolution);
   nerf::OccupancyConfig oc = model.config().occupancy;
   oc.resolution = resolution;
-  grid_ = nerf::OccupancyGrid(oc, box, model.march().min_step);
+  // One grid over the deformed body's box: it only needs to hold the body.
+  grid_ = nerf::OccupancyGrid(oc, box, model.march().min_step, 1);
   rasterise(model, embedding_, grid_);
 }
 
@@ -204,10 +201,10 @@ nerf::RenderedImage renderDeformed(const DeformedScene& scene, const core::Pinho
   const nerf::NgpField& field = model.field();
   const nerf::OccupancyGrid& rest_grid = model.grid();
   const TetEmbedding& emb = scene.embedding();
-  const nerf::MarchParams& mp = model.march();
+  const nerf::MarchParams& mp = model.renderMarch();  // as the undeformed renderer marches
   const nerf::MarchConfig& mc = model.config().march;
   const bool rotate = scene.config().rotate_directions;
-  const float min_t = static_cast<float>(mc.min_transmittance);
+  const float min_t = mp.min_transmittance;
   const int w = camera.width, h = camera.height;
   const std::int64_t n = static_cast<std::int64_t>(w) * h;
   const Eigen::Matrix3d rot = world_from_camera.linear();

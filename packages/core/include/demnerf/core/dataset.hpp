@@ -34,14 +34,22 @@ struct Dataset {
   /// Frames listed in the transforms file whose image does not exist; they are skipped (the
   /// instant-ngp fox lists 67 frames for its 50 photos), and callers should say so.
   std::vector<std::string> missing_images;
+  std::string layout;  ///< "instant-ngp", "nerfstudio" or "nerf-synthetic"
+  /// nerfstudio's applied_transform (times applied_scale): the map from the original capture's
+  /// world (e.g. COLMAP's) into the world the file's poses are written in. The poses are
+  /// already in that world and are used as written; this maps a box or points given in the
+  /// original frame into it. Identity when the file has none.
+  Eigen::Affine3d applied_transform = Eigen::Affine3d::Identity();
 
   const std::vector<Frame>& split(const std::string& name) const;  ///< "train" or "test"
   /// Copies of the frames of "train", "test" or "all" (train then test).
   std::vector<Frame> frames(const std::string& split_name) const;
 };
 
-/// Loads DIR/transforms.json, or DIR/transforms_train.json (+ transforms_test.json).
-/// Throws core::Error naming the file, key and value that are wrong.
+/// Loads DIR/transforms.json (instant-ngp or nerfstudio: per-frame intrinsics override the
+/// global ones; camera_model must be a pinhole one), or DIR/transforms_train.json (+
+/// transforms_test.json, NeRF-synthetic). Throws core::Error naming the file, key and value
+/// that are wrong, or for a folder in another layout, what it holds and how to convert it.
 Dataset loadDataset(const std::string& directory, const DatasetOptions& options = {});
 
 /// A scene box from the cameras alone: centred where their optical axes meet (least squares),

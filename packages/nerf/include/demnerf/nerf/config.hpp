@@ -30,7 +30,14 @@ struct FieldConfig {
 
 /// Occupancy grid over the scene box: EMA of optical thickness, bitfield, instant-ngp schedule.
 struct OccupancyConfig {
-  int resolution = 64;          ///< cells per axis
+  int resolution = 64;          ///< cells per axis (of each cascade)
+  /// Nested grids, each twice the extent of the one inside (instant-ngp's cascades for
+  /// unbounded scenes); 0: 1 + log2(aabb_scale), i.e. 3 for the fox. Default 1: on the fox
+  /// cascades cost 1.4 dB at 600 iterations and saved no samples (docs/nerf_real_captures.md).
+  int cascades = 1;
+  /// Keeps empty the cells no training camera sees (the field is unconstrained there). Off by
+  /// default: on the fox it saved no samples and cost 0.4 dB at 600 iterations.
+  bool cull_unseen = false;
   int update_interval = 16;     ///< training steps between updates
   int warmup_steps = 256;       ///< until then every cell is re-sampled at each update
   double decay = 0.95;          ///< EMA decay of the stored thickness
@@ -46,6 +53,11 @@ struct MarchConfig {
   double near = 0.05;               ///< metres in front of the camera where rays start
   double min_transmittance = 1e-4;  ///< rays stop once less light than this gets through
   int samples_per_round = 8;        ///< samples taken per ray before the network is asked
+  /// Rendering (not training) may march coarser: steps grow as t * render_cone_angle and rays
+  /// stop below render_min_transmittance. < 0: auto, i.e. for unbounded scenes (aabb_scale > 1)
+  /// 1/128 and 0.01 (on the fox: 1.8x fewer samples for -0.06 dB), else the training values.
+  double render_cone_angle = -1.0;
+  double render_min_transmittance = -1.0;
 };
 
 struct TrainConfig {

@@ -15,6 +15,7 @@ struct Evaluation {
   double ssim = 0;
   int views = 0;
   double seconds_per_view = 0;
+  double samples_per_pixel = 0;  ///< field samples the renders marched, per pixel (load-independent cost)
   std::vector<double> view_psnr;
 };
 

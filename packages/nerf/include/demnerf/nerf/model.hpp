@@ -23,6 +23,8 @@ class NerfModel {
   OccupancyGrid& grid() { return grid_; }
   const OccupancyGrid& grid() const { return grid_; }
   const MarchParams& march() const { return march_; }
+  /// Marching for renders (coarser for unbounded scenes; see MarchConfig::render_cone_angle).
+  const MarchParams& renderMarch() const { return render_march_; }
 
   /// Density sampled at the centres of a res x res x res lattice over the box, x fastest
   /// (for marching cubes). Threaded.
@@ -32,6 +34,7 @@ class NerfModel {
   NgpField field_;
   OccupancyGrid grid_;
   MarchParams march_;
+  MarchParams render_march_;
 };
 
 }  // namespace demnerf::nerf

@@ -12,8 +12,12 @@ namespace demnerf::nerf {
 /// Step sizes in metres, derived from the config and the box.
 struct MarchParams {
   float min_step = 0, max_step = 0, cone_angle = 0, near = 0;
+  float max_step_cells = 1;  ///< the largest step in a cascade, in that cascade's cells
+  float min_transmittance = 0;  ///< rays stop once less light than this gets through
   int max_samples = 0;
   static MarchParams make(const MarchConfig& config, const Box& bounds, double aabb_scale, int grid_resolution);
+  /// The coarser marching of renders (render_cone_angle, render_min_transmittance).
+  static MarchParams makeRender(const MarchConfig& config, const Box& bounds, double aabb_scale, int grid_resolution);
 };
 
 /// Where one ray is in its march.

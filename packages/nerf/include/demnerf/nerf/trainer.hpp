@@ -82,6 +82,10 @@ class Trainer {
   struct StoredFrame;
   void gatherBatch(std::int64_t rays, TrainRays& batch);
   void evictRedundantFrames();  // with frames_mutex_ held
+  /// Keeps the occupancy grid's cells no frame sees empty, when the frame set has changed.
+  void refreshVisibility();
+  std::uint64_t frames_version_ = 0;       ///< guarded by frames_mutex_; bumped on add and evict
+  std::uint64_t visibility_version_ = 0;   ///< frames_version_ the grid's visibility reflects
   std::size_t max_frames_ = 0;  ///< guarded by frames_mutex_
   double learningRate() const;
 
