@@ -37,11 +37,15 @@ finish_stage() { timings+=("$1 $((SECONDS - stage_start)) s"); stage_start=$SECO
 fail() { echo "check_install: FAILED: $*" >&2; failures+=("$*"); }
 
 # A clean environment with only the install space: nothing of this checkout's build leaks in.
+# exec all the way down, so that `in_install_space ... &` leaves $! = the command's own process
+# (a subshell in between would not pass on the SIGINT that stops roslaunch and roscore).
 in_install_space() {
-  env -i HOME="$HOME" PATH=/usr/local/bin:/usr/bin:/bin TERM=dumb ROS_HOME="$WS/ros_home" \
+  exec env -i HOME="$HOME" PATH=/usr/local/bin:/usr/bin:/bin TERM=dumb ROS_HOME="$WS/ros_home" \
     ROS_MASTER_URI="http://localhost:$PORT" ROS_HOSTNAME=localhost \
     bash -c "source '$1/setup.bash' && $2"
 }
+# The same in the foreground (a subshell, so that exec does not end this script).
+run_in_install_space() { (in_install_space "$@"); }
 
 fresh_workspace() {
   rm -rf "$1" && mkdir -p "$1/src" && git clone -q "$ROOT" "$1/src/dem_nerf" || { fail "cannot clone $ROOT into $1"; return 1; }
@@ -59,9 +63,9 @@ check_installed_files() {
     [ -e "$install/$f" ] || fail "not installed: $f"
   done
   local found
-  found=$(in_install_space "$install" "rospack find dem_nerf")
+  found=$(run_in_install_space "$install" "rospack find dem_nerf")
   [ "$found" = "$install/share/dem_nerf" ] || fail "rospack finds dem_nerf at '$found', not in the install space"
-  in_install_space "$install" "demnerf simulate --help" | grep -q -- "--vtu" || fail "installed demnerf has no simulate --vtu"
+  run_in_install_space "$install" "demnerf simulate --help" | grep -q -- "--vtu" || fail "installed demnerf has no simulate --vtu"
 }
 
 # roscore, then the pipeline from the install space; the nodes must register and advertise.
@@ -75,8 +79,8 @@ check_launch() {
   local nodes="" topics="" expected_topics="/dem_node/displaced /dem_node/status /dem_node/markers /nerf_node/particles /nerf_node/status"
   for _ in $(seq 60); do
     sleep 1
-    nodes=$(in_install_space "$install" "rosnode list" 2>/dev/null)
-    topics=$(in_install_space "$install" "rostopic list" 2>/dev/null)
+    nodes=$(run_in_install_space "$install" "rosnode list" 2>/dev/null)
+    topics=$(run_in_install_space "$install" "rostopic list" 2>/dev/null)
     local missing=0
     for t in $expected_topics; do grep -qx "$t" <<< "$topics" || missing=1; done
     grep -qx /dem_node <<< "$nodes" && grep -qx /nerf_node <<< "$nodes" && [ $missing -eq 0 ] && break
@@ -86,7 +90,7 @@ check_launch() {
   for t in $expected_topics; do grep -qx "$t" <<< "$topics" || fail "topic $t not advertised (see $log)"; done
   # The launch must not have found its files in the source tree (it has none in a clean env).
   grep -q "$install/share/dem_nerf/config/scenarios/tbar_twist.yaml" <<< \
-    "$(in_install_space "$install" "rosparam get /dem_node/scenario" 2>/dev/null)" || fail "dem_node's scenario is not the installed one"
+    "$(run_in_install_space "$install" "rosparam get /dem_node/scenario" 2>/dev/null)" || fail "dem_node's scenario is not the installed one"
   kill -INT "$launch" 2> /dev/null; wait "$launch" 2> /dev/null
   kill -INT "$core" 2> /dev/null; wait "$core" 2> /dev/null
 }
@@ -131,9 +135,9 @@ int main(int argc, char** argv) {
   return argc == 2 ? 0 : 1;
 }
 CPP
-  in_install_space "$install" "cd '$ws' && catkin_make -DPYTHON_EXECUTABLE=/usr/bin/python3 -DCMAKE_BUILD_TYPE=Release" \
+  run_in_install_space "$install" "cd '$ws' && catkin_make -DPYTHON_EXECUTABLE=/usr/bin/python3 -DCMAKE_BUILD_TYPE=Release" \
     > "$ws/build.log" 2>&1 || { fail "a downstream package does not build against the install space (see $ws/build.log)"; return; }
-  in_install_space "$install" "'$ws/devel/lib/dem_nerf_user/box_to_vtu' '$ws/box.vtu'" && grep -q UnstructuredGrid "$ws/box.vtu" \
+  run_in_install_space "$install" "'$ws/devel/lib/dem_nerf_user/box_to_vtu' '$ws/box.vtu'" && grep -q UnstructuredGrid "$ws/box.vtu" \
     || fail "the downstream program did not write its .vtu"
 }
 
