@@ -17,6 +17,8 @@ endif()
 
 find_package(GTest QUIET)
 enable_testing()
+# OFF: no test executables (scripts/check_install.sh builds what an installed package needs only).
+option(DEMNERF_BUILD_TESTS "build the gtests and the rostest checks" ON)
 
 # demnerf_add_gtest(<target> SOURCES ... LIBRARIES ...): a gtest executable in
 # <build>/bin/tests registered with ctest, writing <target>.xml into the results folder.
@@ -24,6 +26,9 @@ function(demnerf_add_gtest target)
   cmake_parse_arguments(ARG "" "" "SOURCES;LIBRARIES" ${ARGN})
   if(NOT GTest_FOUND)
     message(STATUS "dem_nerf: GTest not found, ${target} is not built (run make setup)")
+    return()
+  endif()
+  if(NOT DEMNERF_BUILD_TESTS)
     return()
   endif()
   add_executable(${target} ${ARG_SOURCES})

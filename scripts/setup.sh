@@ -18,8 +18,12 @@ PACKAGES=(
   # numerics, learning, geometry, vision
   libtorch-dev libopenblas0-pthread libeigen3-dev libpcl-dev libopencv-dev libcgal-dev
   libyaml-cpp-dev nlohmann-json3-dev
+  # ParaView export (vtkXMLUnstructuredGridWriter); libpcl-dev pulls it in too, named here as used
+  libvtk9-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev python3-sensor-msgs
+  # scripts/check_install.sh: `catkin build` of a fresh workspace
+  catkin-tools
 )
 
 missing=()

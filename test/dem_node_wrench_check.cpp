@@ -9,7 +9,12 @@
 #include <sensor_msgs/point_cloud2_iterator.h>
 #include <tf2_ros/static_transform_broadcaster.h>
 
+#include <chrono>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
 #include <mutex>
 #include <optional>
 
@@ -18,7 +23,26 @@
 
 namespace {
 
+/// ~export_dir: the solve was also written as <export_dir>/solve_0001.vtu, a VTK XML grid of
+/// every particle (test_vtk_export reads such files back with VTK and checks their numbers).
+void expectExported(std::size_t particles, std::filesystem::file_time_type started) {
+  std::string folder;
+  ASSERT_TRUE(ros::param::get("/dem_node/export_dir", folder));
+  const std::filesystem::path file = std::filesystem::path(folder) / "solve_0001.vtu";
+  // The file is written right after the cloud is published.
+  for (int i = 0; i < 100 && !std::filesystem::exists(file); ++i) ros::WallDuration(0.05).sleep();
+  ASSERT_TRUE(std::filesystem::exists(file)) << file;
+  EXPECT_GE(std::filesystem::last_write_time(file), started) << "a stale file from an earlier run";
+  std::ifstream in(file);
+  const std::string head((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(head.find("<VTKFile type=\"UnstructuredGrid\""), std::string::npos);
+  EXPECT_NE(head.find("NumberOfPoints=\"" + std::to_string(particles) + "\""), std::string::npos);
+  for (const char* name : {"Name=\"displacement\"", "Name=\"von_mises\"", "Name=\"volume\""})
+    EXPECT_NE(head.find(name), std::string::npos) << name;
+}
+
 TEST(DemNodeWrench, TheTipFollowsTheForceAndTheClampHolds) {
+  const auto started = std::filesystem::file_time_type::clock::now() - std::chrono::seconds(1);
   ros::NodeHandle node;
   std::mutex mutex;
   std::optional<sensor_msgs::PointCloud2> displaced;
@@ -73,6 +97,7 @@ TEST(DemNodeWrench, TheTipFollowsTheForceAndTheClampHolds) {
   std::printf("cantilever tip: uz %.3g m, mean |ux|+|uy| %.3g m\n", tip_uz, tip_lateral);
   EXPECT_LT(tip_lateral, 0.3 * std::abs(tip_uz));
   EXPECT_LT(clamp_max, 1e-6) << "clamped particles moved";
+  expectExported(bar.size(), started);
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <iostream>
 #include <sstream>
 #include <tuple>
@@ -16,6 +17,7 @@
 #include "demnerf/core/scenario.hpp"
 #include "demnerf/mechanics/simulate.hpp"
 #include "demnerf/mechanics/solver_config_yaml.hpp"
+#include "demnerf/vtk_export/vtu_writer.hpp"
 
 namespace demnerf::cli {
 namespace {
@@ -121,7 +123,8 @@ mechanics::SimulateOptions settings(const Arguments& arguments) {
 Figures runSimulate(const Arguments& arguments) {
   arguments.rejectUnknown({"particles", "scenario", "solver", "mesh", "out", "cell", "order", "iterations", "width",
                            "depth", "boundary", "threads", "json", "quiet", "save-model", "load-range", "newton",
-                           "grid-cell", "grid-spacings", "grid-body-cells", "mesher", "method", "config", "time-limit", "print-config"});
+                           "grid-cell", "grid-spacings", "grid-body-cells", "mesher", "method", "config", "time-limit", "print-config",
+                           "vtu"});
   mechanics::SimulateOptions options = settings(arguments);
   if (arguments.flag("print-config")) {
     std::cout << "# demnerf solver settings (demnerf simulate --config FILE, dem_node ~solver_config): every key\n"
@@ -142,6 +145,13 @@ Figures runSimulate(const Arguments& arguments) {
     options.dem_model_path = arguments.text("save-model");
   }
   if (!arguments.flag("quiet")) options.control.progress = printProgress;
+  const std::string vtu_path = arguments.has("vtu") ? arguments.text("vtu") : std::string();
+  if (arguments.has("vtu") && vtu_path.empty()) throw UsageError("option --vtu expects a file name, e.g. out.vtu");
+  // Before the solve, not after it: a typo in the folder must not cost the solve's minutes.
+  const std::filesystem::path vtu_folder = std::filesystem::path(vtu_path).parent_path();
+  if (!vtu_path.empty() && !vtu_folder.empty() && !std::filesystem::is_directory(vtu_folder))
+    throw UsageError("option --vtu: the folder " + vtu_folder.string() + " does not exist");
+  options.keep_fem_mesh = !vtu_path.empty() && solver == mechanics::SolverChoice::kFem;
 
   mechanics::SimulationOutcome outcome;
   try {
@@ -154,12 +164,21 @@ Figures runSimulate(const Arguments& arguments) {
     throw core::Error(std::string("solve failed (") + mechanics::solveFailureName(error.failure()) + "): " + message);
   }
   core::writeResult(out_path, outcome.field);
+  if (!vtu_path.empty()) {
+    // ParaView: the FEM's own mesh and nodal solution when there is one, else the particles.
+    if (outcome.fem_mesh)
+      vtk_export::writeTetMeshVtu(vtu_path, outcome.fem_mesh->mesh, outcome.fem_mesh->displacement,
+                                  outcome.fem_mesh->von_mises);
+    else
+      vtk_export::writeParticlesVtu(vtu_path, cloud, outcome.field);
+  }
   Figures figures{{"seconds", outcome.seconds},
                   {"energy", outcome.energy},
                   {"max_displacement", outcome.max_displacement},
                   {"particles", cloud.size()},
                   {"solver", solver_name},
                   {"out", out_path}};
+  if (!vtu_path.empty()) figures["vtu"] = vtu_path;
   if (solver == mechanics::SolverChoice::kDem) figures["method"] = arguments.text("method", "grid");
   if (solver == mechanics::SolverChoice::kPinn) figures["loss"] = outcome.loss;
   if (solver == mechanics::SolverChoice::kFem) {
@@ -183,6 +202,9 @@ const char* usage() {
          "  --scenario S.yaml      material, fixtures and loads, e.g. config/scenarios/*.yaml (required)\n"
          "  --out R.ply            result: rest position, displacement, von Mises stress per particle (required)\n"
          "  --solver dem|fem|pinn  default dem: Deep Energy Method; fem: FEM baseline; pinn: strong-form PINN\n"
+         "  --vtu OUT.vtu          also write the answer for ParaView (VTK XML unstructured grid): the particles\n"
+         "                         as vertices, or with --solver fem the FEM's tetrahedra, with point data\n"
+         "                         displacement, von_mises and volume (default: not written)\n"
          "  --config FILE          solver settings YAML (config/solvers.yaml lists every key with its default)\n"
          "  --time-limit S         default "
       << number(d.control.time_limit)

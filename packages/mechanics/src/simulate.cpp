@@ -113,6 +113,15 @@ SimulationOutcome simulate(const core::ParticleCloud& cloud, const core::Scenari
       out.field.positions = cloud.positions;
       out.field.displacements = at.displacement;
       out.field.von_mises = at.von_mises;
+      if (options.keep_fem_mesh) {
+        auto kept = std::make_shared<FemMeshSolution>();
+        kept->mesh = fem.mesh();
+        kept->displacement = fem.result().displacement;
+        // Stress is per element (discontinuous across faces); at a node, the element that
+        // locates it gives it, as at any other point.
+        kept->von_mises = fem.interpolate(kept->mesh.nodes).von_mises;
+        out.fem_mesh = std::move(kept);
+      }
       break;
     }
     case SolverChoice::kPinn: {

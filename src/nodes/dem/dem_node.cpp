@@ -480,7 +480,8 @@ void DemNode::runSolve(const SolveJob& job) {
     std::string how;
     const demnerf::mechanics::SimulationOutcome outcome = solveJob(job, how);
     publishResult(outcome, job.scenario);
-    const std::string figures = describe(outcome) + (how.empty() ? "" : ", " + how);
+    const SolutionExport::Report exported = export_.write(job.cloud, outcome);  // never throws
+    const std::string figures = describe(outcome) + (how.empty() ? "" : ", " + how) + exported.note;
     {
       std::lock_guard<std::mutex> lock(mutex_);
       stage_ = "solved";
@@ -488,6 +489,7 @@ void DemNode::runSolve(const SolveJob& job) {
       solve_running_ = false;
     }
     publishStatus("solved", job.cause + ": " + figures);
+    if (!exported.error.empty()) reportError("export", exported.error);
     if (job.reply) job.reply->set_value(outcome);  // last: nothing after it can throw
     return;
   } catch (const demnerf::mechanics::SolveError& error) {

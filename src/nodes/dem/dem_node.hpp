@@ -38,6 +38,7 @@
 #include "nodes/dem/dem_node_config.hpp"
 #include "nodes/dem/interactive_push.hpp"
 #include "nodes/dem/live_settings.hpp"
+#include "nodes/dem/solution_export.hpp"
 #include "workers/latest_wins_worker.hpp"
 
 namespace dem_nerf {
@@ -150,6 +151,7 @@ class DemNode {
   std::optional<SolveJob> deferred_;  ///< a topic's job that waits for a ~solve job to start
 
   DeformedView view_;  ///< only the render worker's thread touches it
+  SolutionExport export_{config_.export_dir};  ///< ~export_dir; only the solve worker's thread touches it
   // The workers come last (their threads use the members above); the solve worker is destroyed
   // first because its thread queues renders.
   std::uint64_t particles_generation_ = 0;  ///< counts accepted particle clouds (guarded by mutex_)

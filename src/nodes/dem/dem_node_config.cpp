@@ -68,6 +68,7 @@ DemNodeConfig read(const Node& node) {
   readCount(node, "max_particles", config.max_particles, 1);
   readNumber(node, "supersede_after", config.supersede_after, 0.0);
   readCount(node, "max_render_pixels", config.max_render_pixels, 1);
+  node.param("export_dir", config.export_dir, config.export_dir);
   node.param("dem_method", config.dem_method, config.dem_method);
   node.param("solver_config", config.solver_config, config.solver_config);
   config.solver_options = readSolverOptions(node, config);

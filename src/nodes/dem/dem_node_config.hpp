@@ -40,6 +40,8 @@ struct DemNodeConfig {
   /// finish, so a fast wrench stream still gets answers. ~solve calls are never cancelled so.
   double supersede_after = 2.0;
   int max_render_pixels = 640 * 480;  ///< ~render_camera_info asking for more is refused
+  /// Folder that receives <export_dir>/solve_<n>.vtu (ParaView) after each solve (empty: none).
+  std::string export_dir;
 
   /// The solver options these parameters imply (solver_options).
   demnerf::mechanics::SimulateOptions simulateOptions() const;

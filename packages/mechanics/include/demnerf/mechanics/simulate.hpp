@@ -2,8 +2,10 @@
 // One entry point for every solver: a particle cloud and a scenario in, a result field (one row
 // per particle, in order) and the run's figures out. Backs `demnerf simulate` and the dem_node.
 
+#include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "demnerf/core/ply.hpp"
 #include "demnerf/core/scenario.hpp"
@@ -40,6 +42,15 @@ struct SimulateOptions {
   Mesher mesher = Mesher::kCgal;
   /// Time budget, progress sink and cancel flag of the solve (every solver honours them).
   SolveControl control;
+  /// FEM: keep the mesh and its nodal solution in SimulationOutcome::fem_mesh (ParaView export).
+  bool keep_fem_mesh = false;
+};
+
+/// The FEM's own answer: its mesh, the displacement at every node and the von Mises stress there.
+struct FemMeshSolution {
+  TetMesh mesh;
+  std::vector<Eigen::Vector3d> displacement;
+  std::vector<double> von_mises;
 };
 
 struct SimulationOutcome {
@@ -51,6 +62,8 @@ struct SimulationOutcome {
   int mesh_nodes = 0;             ///< FEM only
   int mesh_elements = 0;          ///< FEM only
   double mesh_cell = 0.0;         ///< FEM only: the cell (target edge) the mesh was made with (m)
+  /// FEM with options.keep_fem_mesh only; shared so that copies of the outcome stay cheap.
+  std::shared_ptr<const FemMeshSolution> fem_mesh;
 };
 
 /// Solves the scenario on the particles. Throws core::Error for bad input (before any work) or a
