@@ -10,7 +10,8 @@
 #include <numeric>
 
 #include "demnerf/core/error.hpp"
-#include "demnerf/mechanics/bspline_extension.hpp"
+#include "extended_unknowns.hpp"
+#include "shifted_cholesky.hpp"
 
 namespace demnerf::mechanics {
 namespace {
@@ -237,108 +238,7 @@ class GridFieldEnergy {
   double external_offset_ = 0.0;
 };
 
-// Solves (H + shift I) x = b with the smallest shift (0 first) that makes H positive definite.
-// Newton's Hessians change little from one iteration to the next, so the last factorisation
-// preconditions conjugate gradients on the new one; it is refactorised only when CG needs more
-// than kMaxReuseIterations or meets negative curvature (as the FEM baseline does).
-class ShiftedCholesky {
- public:
-  Eigen::VectorXd solve(const Eigen::SparseMatrix<double>& H, const Eigen::VectorXd& b, double initial_shift) {
-    if (factorised_) {
-      Eigen::VectorXd x;
-      if (preconditionedCg(H, b, x)) return x;
-    }
-    if (!analysed_) {
-      ldlt_.analyzePattern(H);
-      analysed_ = true;
-    }
-    const double scale = std::max(H.diagonal().cwiseAbs().mean(), std::numeric_limits<double>::min());
-    double shift = 0.0;
-    for (int attempt = 0; attempt < 12; ++attempt) {
-      Eigen::SparseMatrix<double> shifted = H;
-      if (shift > 0) shifted.diagonal().array() += shift * scale;
-      ldlt_.factorize(shifted);
-      factorised_ = ldlt_.info() == Eigen::Success && ldlt_.vectorD().minCoeff() > 0;
-      if (factorised_) return ldlt_.solve(b);
-      shift = shift == 0.0 ? initial_shift : 10.0 * shift;
-    }
-    return b / scale;  // steepest descent as the last resort
-  }
-
- private:
-  static constexpr int kMaxReuseIterations = 30;
-
-  bool preconditionedCg(const Eigen::SparseMatrix<double>& H, const Eigen::VectorXd& b, Eigen::VectorXd& x) {
-    x = Eigen::VectorXd::Zero(b.size());
-    Eigen::VectorXd r = b, z = ldlt_.solve(r), p = z;
-    double rz = r.dot(z);
-    const double target = 1e-12 * b.squaredNorm();  // 1e-6 relative: an inexact Newton direction
-    for (int it = 0; it < kMaxReuseIterations; ++it) {
-      const Eigen::VectorXd Hp = H.selfadjointView<Eigen::Lower>() * p;
-      const double curvature = p.dot(Hp);
-      if (!(curvature > 0)) return false;
-      const double alpha = rz / curvature;
-      x += alpha * p;
-      r -= alpha * Hp;
-      if (r.squaredNorm() <= target) return true;
-      z = ldlt_.solve(r);
-      const double rz_next = r.dot(z);
-      p = z + (rz_next / rz) * p;
-      rz = rz_next;
-    }
-    return false;
-  }
-
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower> ldlt_;
-  bool analysed_ = false, factorised_ = false;
-};
-
 }  // namespace
-
-// The Newton unknowns: every active node's coefficients, or (GridNewtonConfig::extension_fill)
-// only the kept nodes', the others extrapolated (c = E r).
-class Unknowns {
- public:
-  Unknowns(const GridFieldProblem& problem, const BsplineGrid& grid, const std::vector<long>& active, double fill) {
-    if (!(fill > 0)) return;
-    std::vector<double> cell_fill(static_cast<std::size_t>(grid.cells().cast<long>().prod()), 0.0);
-    const double cell_volume = std::pow(grid.cell(), 3);
-    for (std::size_t q = 0; q < problem.points.size(); ++q)
-      cell_fill[grid.cellIndex(problem.points[q])] += problem.volume[q] / cell_volume;
-    const BsplineExtension ext = extendOuterNodes(grid, active, cell_fill, fill);
-    std::vector<Eigen::Triplet<double>> entries;
-    for (int k = 0; k < ext.map.outerSize(); ++k)
-      for (Eigen::SparseMatrix<double>::InnerIterator it(ext.map, k); it; ++it)
-        for (int i = 0; i < 3; ++i)
-          entries.emplace_back(3 * static_cast<int>(it.row()) + i, 3 * static_cast<int>(it.col()) + i, it.value());
-    map_.resize(3 * ext.map.rows(), 3 * ext.map.cols());
-    map_.setFromTriplets(entries.begin(), entries.end());
-    kept_ = ext.kept;
-    extended_ = true;
-  }
-  bool extended() const { return extended_; }
-  Eigen::VectorXd full(const Eigen::VectorXd& r) const { return extended_ ? Eigen::VectorXd(map_ * r) : r; }
-  /// The unknowns of full coefficients: the kept nodes' values.
-  Eigen::VectorXd reduce(const Eigen::VectorXd& c) const {
-    if (!extended_) return c;
-    Eigen::VectorXd r(map_.cols());
-    for (std::size_t k = 0; k < kept_.size(); ++k) r.segment<3>(3 * k) = c.segment<3>(3 * kept_[k]);
-    return r;
-  }
-  /// Gradient and Hessian (lower triangle) in the unknowns.
-  void project(Eigen::VectorXd& gradient, Eigen::SparseMatrix<double>& hessian) const {
-    if (!extended_) return;
-    gradient = map_.transpose() * gradient;
-    const Eigen::SparseMatrix<double> symmetric = hessian.selfadjointView<Eigen::Lower>();
-    const Eigen::SparseMatrix<double> reduced = map_.transpose() * symmetric * map_;
-    hessian = reduced.triangularView<Eigen::Lower>();
-  }
-
- private:
-  bool extended_ = false;
-  std::vector<long> kept_;           // positions in the active list of the kept nodes
-  Eigen::SparseMatrix<double> map_;  // 3 x active nodes by 3 x kept nodes
-};
 
 GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const HyperelasticMaterial& material,
                                     const BsplineGrid& grid, Eigen::MatrixXd& C, const GridNewtonConfig& config) {

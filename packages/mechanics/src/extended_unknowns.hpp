@@ -1,0 +1,61 @@
+#pragma once
+// The unknowns of the feature grid's Newton solve (grid_field_newton.cpp, its only includer):
+// the full coefficient vector, or the kept nodes of the extended B-spline basis with the map to
+// the full one. Private to packages/mechanics/src.
+
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+#include <cmath>
+#include <vector>
+
+#include "demnerf/mechanics/bspline_extension.hpp"
+#include "demnerf/mechanics/grid_field_newton.hpp"
+
+namespace demnerf::mechanics {
+
+/// The grid Newton's unknowns: every active node's coefficients, or (GridNewtonConfig::extension_fill)
+/// only the kept nodes', the others extrapolated from them (c = E r, bspline_extension.hpp).
+class Unknowns {
+ public:
+  Unknowns(const GridFieldProblem& problem, const BsplineGrid& grid, const std::vector<long>& active, double fill) {
+    if (!(fill > 0)) return;
+    std::vector<double> cell_fill(static_cast<std::size_t>(grid.cells().cast<long>().prod()), 0.0);
+    const double cell_volume = std::pow(grid.cell(), 3);
+    for (std::size_t q = 0; q < problem.points.size(); ++q)
+      cell_fill[grid.cellIndex(problem.points[q])] += problem.volume[q] / cell_volume;
+    const BsplineExtension ext = extendOuterNodes(grid, active, cell_fill, fill);
+    std::vector<Eigen::Triplet<double>> entries;
+    for (int k = 0; k < ext.map.outerSize(); ++k)
+      for (Eigen::SparseMatrix<double>::InnerIterator it(ext.map, k); it; ++it)
+        for (int i = 0; i < 3; ++i)
+          entries.emplace_back(3 * static_cast<int>(it.row()) + i, 3 * static_cast<int>(it.col()) + i, it.value());
+    map_.resize(3 * ext.map.rows(), 3 * ext.map.cols());
+    map_.setFromTriplets(entries.begin(), entries.end());
+    kept_ = ext.kept;
+    extended_ = true;
+  }
+  bool extended() const { return extended_; }
+  Eigen::VectorXd full(const Eigen::VectorXd& r) const { return extended_ ? Eigen::VectorXd(map_ * r) : r; }
+  /// The unknowns of full coefficients: the kept nodes' values.
+  Eigen::VectorXd reduce(const Eigen::VectorXd& c) const {
+    if (!extended_) return c;
+    Eigen::VectorXd r(map_.cols());
+    for (std::size_t k = 0; k < kept_.size(); ++k) r.segment<3>(3 * k) = c.segment<3>(3 * kept_[k]);
+    return r;
+  }
+  /// Gradient and Hessian (lower triangle) in the unknowns.
+  void project(Eigen::VectorXd& gradient, Eigen::SparseMatrix<double>& hessian) const {
+    if (!extended_) return;
+    gradient = map_.transpose() * gradient;
+    const Eigen::SparseMatrix<double> symmetric = hessian.selfadjointView<Eigen::Lower>();
+    const Eigen::SparseMatrix<double> reduced = map_.transpose() * symmetric * map_;
+    hessian = reduced.triangularView<Eigen::Lower>();
+  }
+
+ private:
+  bool extended_ = false;
+  std::vector<long> kept_;           // positions in the active list of the kept nodes
+  Eigen::SparseMatrix<double> map_;  // 3 x active nodes by 3 x kept nodes
+};
+
+}  // namespace demnerf::mechanics
