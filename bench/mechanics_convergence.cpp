@@ -141,6 +141,7 @@ int main(int argc, char** argv) {
   base.depth = static_cast<int>(num("depth", which == "tbar" ? 3 : 2));
   base.adam_iterations = iters;
   base.grid_spacings = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
+  base.grid_body_cells = 0.0;
   scenario.load_steps = 1;
   std::vector<Variant> variants;
   variants.push_back({"Adam", base, cv::Scalar(200, 60, 0), {}});

@@ -7,6 +7,7 @@
 //   fem_cache=PATH seeds=N double=0|1 verbose=0|1 activation=tanh|softplus|...
 //   newton=0|1 newton_every=N newton_its=N (output-layer Newton, DemConfig::output_newton)
 //   grid=CELL_M grid_degree=1|2|3 grid_band=CELLS dem_steps=N (feature grid, DemConfig::grid_cell)
+//   quadrature=cells|particles extension=FILL (DemConfig::grid_quadrature, grid_extension_fill)
 // Prints one markdown row per seed and the median time / error.
 
 #include <algorithm>
@@ -74,6 +75,10 @@ int main(int argc, char** argv) {
   config.grid_cell = num("grid", config.grid_cell);
   config.grid_degree = static_cast<int>(num("grid_degree", config.grid_degree));
   config.grid_refine_band = num("grid_band", config.grid_refine_band);
+  // quadrature=particles extension=0: the earlier default grid (the README's lattice T-bar rows).
+  if (a.count("quadrature") && a["quadrature"] == "particles")
+    config.grid_quadrature = dm::DemConfig::GridQuadrature::kParticles;
+  config.grid_extension_fill = num("extension", config.grid_extension_fill);
   config.load_steps = static_cast<int>(num("dem_steps", config.load_steps));
   if (a.count("activation")) config.activation = a["activation"];
   if (a.count("boundary") && a["boundary"] == "penalty") config.boundary = dm::DemConfig::Boundary::kPenalty;

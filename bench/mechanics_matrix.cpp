@@ -11,8 +11,9 @@
 //   scenarios=tbar_twist,cuboid_twist,cantilever_bending,uniaxial_compression,self_weight_sag,
 //             cook_membrane_plane_strain,beam3d   (default: all)
 //   samplers=random,poisson,grid   spacings=6,10,15 (divisors of the smallest dimension)
-//   sources=exact,nerf   solvers=fem,dem,dem_mlp,dem_mlp_exact (and the experimental columns
-//             dem_cells, dem_ext: cell quadrature without / with extended B-splines, with
+//   sources=exact,nerf   solvers=fem,dem,dem_mlp,dem_mlp_exact (and the comparison columns
+//             dem_particles: the earlier default DEM; dem_cells, dem_ext: cell quadrature
+//             without / with extended B-splines at 2 particle spacings, with
 //             grid_spacings=2 ext_fill=0.75 levels=1, or body_cells=N: cells from the body's volume)
 //   time_limit=60 (s per cell, SolveControl::time_limit)   mlp_iters=1500 (paper's DEM, per load step)
 //   fem_div=0 (FEM column's mesh size = smallest dimension / fem_div; 0: the CLI's automatic size)
@@ -124,7 +125,13 @@ dm::SimulateOptions solverOptions(const std::string& solver, const Settings& s, 
     o.voxel.cell = s.fem_div > 0 ? smallest / s.fem_div : 0.0;
     o.voxel.order = 2;
   } else if (solver == "dem") {
-    o.dem.grid_spacings = 2;  // the feature-grid DEM, Newton only
+    // DemConfig's defaults, as `demnerf simulate` runs them: the body-sized grid, cell
+    // quadrature, extended B-splines, Newton only.
+  } else if (solver == "dem_particles") {
+    o.dem.grid_spacings = 2;  // the earlier default: cells of 2 particle spacings, particle quadrature
+    o.dem.grid_body_cells = 0;
+    o.dem.grid_quadrature = dm::DemConfig::GridQuadrature::kParticles;
+    o.dem.grid_extension_fill = 0;
     o.dem.grid_cell = 0;
     o.dem.adam_iterations = 0;
   } else if (solver == "dem_cells" || solver == "dem_ext") {
@@ -139,11 +146,12 @@ dm::SimulateOptions solverOptions(const std::string& solver, const Settings& s, 
     o.dem.grid_extension_fill = solver == "dem_ext" ? s.extension_fill : 0.0;
   } else if (solver == "dem_mlp" || solver == "dem_mlp_exact") {
     o.dem.grid_spacings = 0;  // the paper's DEM: the MLP alone, trained by Adam
+    o.dem.grid_body_cells = 0;
     o.dem.grid_cell = 0;
     o.dem.adam_iterations = s.mlp_iters;
     o.dem.boundary = solver == "dem_mlp" ? dm::DemConfig::Boundary::kPenalty : dm::DemConfig::Boundary::kExact;
   } else {
-    throw core::Error("unknown solver column '" + solver + "': use fem, dem, dem_cells, dem_ext, dem_mlp or dem_mlp_exact");
+    throw core::Error("unknown solver column '" + solver + "': use fem, dem, dem_particles, dem_cells, dem_ext, dem_mlp or dem_mlp_exact");
   }
   return o;
 }

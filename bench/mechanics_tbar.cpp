@@ -82,6 +82,7 @@ int main(int argc, char** argv) {
     dm::DemConfig config;
     config.adam_iterations = dem_iterations;
     config.grid_spacings = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
+    config.grid_body_cells = 0.0;
     config.seed = seed;
     dm::DemSolver dem(cloud, scenario, config);
     const dm::DemReport r = dem.solve();
