@@ -27,8 +27,8 @@ Figures runExtract(const Arguments& arguments) {
   }
   geometry::MeshExtractionConfig config;
   // The surface as rendered (opacity 0.15 along the clearest axis) is the default: on the
-  // T-bar it gives the volume within 3 % where instant-ngp's density 2.5 gives +16 %
-  // (docs: /work/notes/geometry2.md). --threshold alone keeps its old meaning.
+  // T-bar it gives the volume within 3 % where instant-ngp's density 2.5 gives +16 %.
+  // --threshold alone keeps its old meaning.
   const std::string surface = arguments.text("surface", arguments.has("threshold") ? "density" : "opacity");
   try {
     config.surface = geometry::parseSurfaceDefinition(surface);

@@ -117,7 +117,7 @@ inline void setBlasThreads(int threads) {
 }
 
 /// Torch and BLAS threads for a solve: `threads` when > 0, else one thread below 50k particles
-/// (fastest for product-size clouds on shared 2-core machines, notes/dem_speed.md) and every core
+/// (fastest for product-size clouds on shared 2-core machines) and every core
 /// above, where the threads' synchronisation pays off.
 inline void setSolverThreads(int threads, std::size_t particles) {
   const int n = threads > 0 ? threads

@@ -65,7 +65,7 @@ TEST(Dem, UniaxialTractionMatchesTheClosedFormWithExactBoundaries) {
   const double a = dm::uniaxialStretchForStress(*dm::makeMaterial(s.material), 2e5, &b);
   const double error = relativeError(dem, cloud, a, b);
   std::cout << "DEM exact BCs: max rel error " << error << ", " << r.iterations << " iterations, " << r.seconds << " s\n";
-  // Max-norm error; measured 1.1-1.5 % over seeds 1-3 (rel. L2 0.5-0.6 %, notes/dem_speed.md).
+  // Max-norm error; measured 1.1-1.5 % over seeds 1-3 (rel. L2 0.5-0.6 %).
   // The rigid-translation exploit gives 1000 % and more; a surface strain layer 5-10 %.
   EXPECT_LT(error, 0.03);
   EXPECT_GT(r.min_J, 0.0);

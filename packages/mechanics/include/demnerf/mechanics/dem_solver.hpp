@@ -117,13 +117,13 @@ struct DemConfig {
   int lbfgs_iterations = 0;
   int lbfgs_history = 50;
   /// A legitimate polish after a short Adam run lowers Pi 3.5x and grows max |u| 4x on the T-bar;
-  /// the exploit lowers Pi ~100x with |u| larger than the body (notes/mechanics.md).
+  /// the exploit lowers Pi ~100x with |u| larger than the body (README "Mechanics").
   double polish_max_energy_drop = 10.0;
   double polish_max_growth = 10.0;
   double tolerance = 1e-10;            ///< L-BFGS stops when the loss changes less than this
   int max_halvings = 4;                ///< load-step halvings after an inverted or NaN solve
-  /// Torch threads; 0 = 1 thread below 50k particles (faster there on loaded 2-core machines,
-  /// see notes/dem_speed.md), all cores above.
+  /// Torch threads; 0 = 1 thread below 50k particles (faster there on loaded 2-core machines),
+  /// all cores above.
   int threads = 0;
   /// Raise glibc's mmap threshold (process-wide) so per-step activation buffers are reused
   /// instead of page-faulted in fresh every Adam step (about 1.8x at T-bar sizes).

@@ -32,7 +32,7 @@ struct PinnConfig {
   /// Residual points move at random within their particle's cell (edge: cube root of its volume)
   /// at every Adam step, so no equilibrium violation can hide between fixed collocation points
   /// (the strong-form twin of the DEM's ramp exploit). It did not rescue the T-bar twist, which
-  /// the PINN does not learn with any setting tried (notes/pinn.md).
+  /// the PINN does not learn with any setting tried (README "Mechanics").
   bool jitter = true;
   /// 2e-3: at 5e-3 the T-bar loss rose (Adam's fixed-size steps outran the residual's
   /// curvature); both reach 0.2 % on the uniaxial cube with the L-BFGS polish.

@@ -17,7 +17,7 @@ namespace demnerf::render {
 struct DeformedRenderConfig {
   TetEmbeddingConfig embedding;
   /// Turn the view direction by the local rotation of the deformation for the colour query,
-  /// so view-dependent colour follows the material (measured: see docs/deformed_render.md).
+  /// so view-dependent colour follows the material (measured by bench/render_deformed_bench).
   bool rotate_directions = true;
   /// The result must have this many particles (the particle cloud it was computed on); 0: any.
   std::size_t expected_particles = 0;
