@@ -18,6 +18,7 @@ mkdir -p "$OUT"
 REPORT="$OUT/report.md"
 printf '# dem_nerf demo\n\n| stage | figures |\n| --- | --- |\n' > "$REPORT"
 
+FAILED_STAGES=()  # the demo exits 1 when any stage failed (the later stages still run, for the report)
 stage() {  # stage NAME COMMAND...: runs one stage; exit 2 with "not built yet" is said plainly
   local name=$1
   shift
@@ -34,6 +35,7 @@ stage() {  # stage NAME COMMAND...: runs one stage; exit 2 with "not built yet" 
     echo "   FAILED ($rc): $(tail -n 3 "$OUT/$name.err")"
     printf '| %s | failed: %s |\n' "$name" "$(tail -n 1 "$OUT/$name.err")" >> "$REPORT"
   fi
+  [ $rc -eq 0 ] || FAILED_STAGES+=("$name")
   return $rc
 }
 
@@ -70,7 +72,7 @@ ros_run() {
   printf '| ros | failed: see ros.log |\n' >> "$REPORT"
   return 1
 }
-ros_run
+ros_run || FAILED_STAGES+=(ros)
 stage eval "$CLI" eval --model "$OUT/model.nerf" --data "$DATA" --split test
 TRUTH=()
 if $BUNDLED && [ -f "$OUT/displaced.ply" ]; then
@@ -80,4 +82,8 @@ fi
 stage render "$CLI" render --model "$OUT/model.nerf" --data "$DATA" --split test --out "$OUT/rendered" \
   --result "$OUT/displaced.ply" "${TRUTH[@]}"
 echo "demo outputs are in $OUT (report: $REPORT)"
+if [ ${#FAILED_STAGES[@]} -gt 0 ]; then
+  echo "demo: these stages failed: ${FAILED_STAGES[*]} (their .err files in $OUT say why)" >&2
+  exit 1
+fi
 exit 0
