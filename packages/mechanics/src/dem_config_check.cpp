@@ -69,7 +69,7 @@ double interiorParticleSpacing(const core::ParticleCloud& cloud) {
   return std::cbrt(*at);
 }
 
-DemConfig resolvedDemConfig(DemConfig config, const core::ParticleCloud& cloud) {
+ResolvedDemConfig resolvedDemConfig(DemConfig config, const core::ParticleCloud& cloud) {
   checkNetwork(config);
   checkGridSettings(config);
   const double spacing = interiorParticleSpacing(cloud);
@@ -81,7 +81,7 @@ DemConfig resolvedDemConfig(DemConfig config, const core::ParticleCloud& cloud) 
     config.grid_cell = std::max(std::cbrt(volume / config.grid_body_cells), spacing);
   }
   checkGridAgainstParticles(config, spacing);
-  return config;
+  return {config, spacing};
 }
 
 }  // namespace demnerf::mechanics

@@ -11,9 +11,15 @@ namespace demnerf::mechanics {
 /// volumes (0 without volumes).
 double interiorParticleSpacing(const core::ParticleCloud& cloud);
 
+/// A config checked against its particles, with the spacing it was checked against.
+struct ResolvedDemConfig {
+  DemConfig config;
+  double spacing = 0.0;  ///< interiorParticleSpacing() of the cloud (m)
+};
+
 /// `config` with grid_cell resolved from grid_spacings or grid_body_cells; core::Error naming the
 /// setting and a value that works when a setting is out of range or the grid does not suit the
 /// particles.
-DemConfig resolvedDemConfig(DemConfig config, const core::ParticleCloud& cloud);
+ResolvedDemConfig resolvedDemConfig(DemConfig config, const core::ParticleCloud& cloud);
 
 }  // namespace demnerf::mechanics

@@ -52,11 +52,13 @@ void DemSolver::Impl::setGridCoefficients(const Eigen::MatrixXd& C) {
 }
 
 // In parametric mode the load fraction is the network's fourth input, normalised by the range's
-// largest magnitude.
+// largest magnitude; otherwise there is none.
+Tensor DemSolver::Impl::loadInput(const Tensor& x, double scale) const {
+  return config.parametric ? torch::full({x.size(0), 1}, scale / load_input_scale, x.options()) : Tensor();
+}
+
 DisplacementMlp::Output DemSolver::Impl::hidden(const Tensor& x, bool jacobian, double scale) const {
-  const Tensor extra =
-      config.parametric ? torch::full({x.size(0), 1}, scale / load_input_scale, x.options()) : Tensor();
-  return net.hidden(x, extra, jacobian ? 1 : 0);
+  return net.hidden(x, loadInput(x, scale), jacobian ? 1 : 0);
 }
 
 // u and (optionally) Grad u [n, i, k] for a subset with its lift tensors (g, grad_g, D, grad_D).
@@ -65,9 +67,7 @@ DisplacementMlp::Output DemSolver::Impl::hidden(const Tensor& x, bool jacobian, 
 std::pair<Tensor, Tensor> DemSolver::Impl::displacement(const Tensor& x, const Tensor* lift, bool gradient,
                                                         double scale, const GridSupport* support,
                                                         bool with_grid) const {
-  const Tensor extra =
-      config.parametric ? torch::full({x.size(0), 1}, scale / load_input_scale, x.options()) : Tensor();
-  const DisplacementMlp::Output o = net.forward(x, extra, gradient ? 1 : 0);
+  const DisplacementMlp::Output o = net.forward(x, loadInput(x, scale), gradient ? 1 : 0);
   Tensor z = o.value, dz = o.d1;
   if (grid && with_grid) {
     const auto [zg, dzg] = gridField(support ? *support : gridSupport(x), gradient);

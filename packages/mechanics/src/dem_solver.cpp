@@ -23,8 +23,9 @@ DemSolver::DemSolver(core::ParticleCloud cloud, const core::Scenario& scenario, 
     : impl_(std::make_unique<Impl>()) {
   Impl& m = *impl_;
   validateProblem(scenario, cloud);
-  config = resolvedDemConfig(config, cloud);
-  const double spacing = interiorParticleSpacing(cloud);
+  const ResolvedDemConfig resolved = resolvedDemConfig(config, cloud);
+  config = resolved.config;
+  const double spacing = resolved.spacing;
   m.config = config;
   m.dtype = config.double_precision ? torch::kFloat64 : torch::kFloat32;
   torch_support::setSolverThreads(config.threads, cloud.size());

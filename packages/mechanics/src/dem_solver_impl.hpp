@@ -116,6 +116,7 @@ struct DemSolver::Impl {
 
  private:
   // The parts of the above (same files).
+  Tensor loadInput(const Tensor& x, double scale) const;
   void jitterBand(Tensor& x, Tensor (&lift)[4]) const;
   void orderBandLast(std::vector<long>& volume_particles);
   void buildParticleGridQuadrature();

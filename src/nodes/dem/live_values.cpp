@@ -75,7 +75,8 @@ LiveSolveSettings withLiveValues(const LiveSolveSettings& current, const LiveVal
   if (!(values.youngs_modulus > 0.0)) throw Error("youngs_modulus must be > 0 Pa");
   if (values.poisson_ratio < 0.0 || values.poisson_ratio >= 0.5)
     throw Error("poisson_ratio must lie in [0, 0.5): 0.5 is incompressible, which the Neo-Hookean model cannot take");
-  if (values.dem_grid_spacings < 0.0) throw Error("dem_grid_spacings must be >= 0 (0: the MLP alone)");
+  if (values.dem_grid_spacings < 0.0)
+    throw Error("dem_grid_spacings must be >= 0 (0: the grid sized from the body, the default)");
   if (values.fem_order != 1 && values.fem_order != 2) throw Error("fem_order must be 1 or 2");
   if (values.solve_time_limit < 0.0) throw Error("solve_time_limit must be >= 0 s (0: no limit)");
   LiveSolveSettings next = current;
@@ -90,9 +91,11 @@ LiveSolveSettings withLiveValues(const LiveSolveSettings& current, const LiveVal
     if (current.options.dem.parametric)
       throw Error("dem_grid_spacings does not apply with ~parametric: the parametric DEM is the MLP alone");
     // Spacings rule once set here: a grid given by ~dem_grid_cell or ~dem_grid_body_cells yields.
+    // 0 goes back to the default grid, sized from the body (the MLP alone is ~dem_method mlp).
     next.options.dem.grid_spacings = values.dem_grid_spacings;
     next.options.dem.grid_cell = 0.0;
-    next.options.dem.grid_body_cells = 0.0;
+    next.options.dem.grid_body_cells =
+        values.dem_grid_spacings > 0 ? 0.0 : demnerf::mechanics::DemConfig{}.grid_body_cells;
   }
   if (values.youngs_modulus != before.youngs_modulus || values.poisson_ratio != before.poisson_ratio ||
       next.options.dem.grid_spacings != current.options.dem.grid_spacings)
