@@ -111,6 +111,7 @@ bool DemSolver::Impl::solveGrid(double scale, int& iterations) {
   GridNewtonConfig newton;
   newton.max_iterations = config.grid_newton_iterations;
   newton.extension_fill = config.grid_extension_fill;
+  newton.threads = config.threads;
   const int before = iterations;
   newton.on_iteration = [&](int it, double energy, double residual) {
     tick("newton", scale, before + it, energy, residual);

@@ -8,6 +8,7 @@
 #include "demnerf/core/error.hpp"
 #include "demnerf/mechanics/boundary_conditions.hpp"
 #include "fem_solver_impl.hpp"
+#include "parallel_for.hpp"
 #include "fill_reducing_order.hpp"
 
 namespace demnerf::mechanics {
@@ -42,23 +43,6 @@ std::vector<std::pair<Eigen::Vector3d, double>> faceRule() {
   return rule;
 }
 
-// Runs fn(begin, end) over [0, count) split into `threads` contiguous chunks.
-template <typename Fn>
-void parallelFor(int count, int threads, const Fn& fn) {
-  if (threads <= 1 || count < 2 * threads) {
-    fn(0, count);
-    return;
-  }
-  std::vector<std::thread> pool;
-  const int chunk = (count + threads - 1) / threads;
-  for (int t = 1; t < threads; ++t) {
-    const int begin = std::min(count, t * chunk), end = std::min(count, (t + 1) * chunk);
-    if (begin < end) pool.emplace_back([&fn, begin, end] { fn(begin, end); });
-  }
-  fn(0, std::min(count, chunk));
-  for (auto& t : pool) t.join();
-}
-
 }  // namespace
 
 void FemSolver::Impl::setup() {
@@ -67,7 +51,7 @@ void FemSolver::Impl::setup() {
   n = mesh.nodesPerElement();
   if (mesh.elements.empty()) throw core::Error("the FEM mesh has no elements");
   if (config.threads < 0) throw core::Error("FemConfig threads must be >= 0 (0: all cores), got " + std::to_string(config.threads));
-  threads = config.threads > 0 ? config.threads : std::max(1u, std::thread::hardware_concurrency());
+  threads = assemblyThreads(config.threads);
   const auto rule = volumeRule(mesh.order);
   nq = static_cast<int>(rule.size());
   const int ndof = 3 * static_cast<int>(mesh.nodes.size());
@@ -197,7 +181,7 @@ void FemSolver::Impl::setupPattern() {
   // Scatter positions.
   const int m = 3 * n, packed = m * (m + 1) / 2;
   scatter.assign(static_cast<std::size_t>(n_el) * packed, -1);
-  parallelFor(n_el, threads, [&](int begin, int end) {
+  parallelFor(n_el, threads, [&](long begin, long end) {
     for (int e = begin; e < end; ++e)
       for (int r = 0; r < m; ++r) {
         const int fr = free_index[3 * mesh.elements[e][r / 3] + r % 3];
@@ -274,7 +258,7 @@ double FemSolver::Impl::elementEnergy(const Eigen::VectorXd& x, int e) const {
 double FemSolver::Impl::energy(const Eigen::VectorXd& x, double scale) const {
   const int n_el = static_cast<int>(mesh.elements.size());
   std::vector<double> psi(n_el);
-  parallelFor(n_el, threads, [&](int begin, int end) {
+  parallelFor(n_el, threads, [&](long begin, long end) {
     for (int e = begin; e < end; ++e) psi[e] = n == 4 ? elementEnergy<4>(x, e) : elementEnergy<10>(x, e);
   });
   // Summed in element order whatever the thread count.
@@ -294,7 +278,7 @@ double FemSolver::Impl::assembleT(const Eigen::VectorXd& x, const Eigen::VectorX
   for (const std::vector<int>& colour : colours) {
     // No two elements of a colour share a node, so their scatters never touch the same entry and
     // every entry receives its contributions in colour order: deterministic for any thread count.
-    parallelFor(static_cast<int>(colour.size()), threads, [&](int begin, int end) {
+    parallelFor(static_cast<int>(colour.size()), threads, [&](long begin, long end) {
       Eigen::Matrix<double, M, 1> fe;
       ElementMatrix Ke;
       for (int k = begin; k < end; ++k) {
