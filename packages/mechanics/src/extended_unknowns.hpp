@@ -48,6 +48,8 @@ class Unknowns {
   Eigen::VectorXd projectGradient(const Eigen::VectorXd& gradient) const {
     return extended_ ? Eigen::VectorXd(map_.transpose() * gradient) : gradient;
   }
+  /// The position in the active list of unknown node r.
+  long activeOfUnknown(long r) const { return extended_ ? kept_[r] : r; }
   /// Active nodes x kept nodes (bspline_extension.hpp); empty when every active node is an unknown.
   const Eigen::SparseMatrix<double>& nodeMap() const { return node_map_; }
 

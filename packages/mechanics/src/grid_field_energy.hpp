@@ -42,6 +42,10 @@ class GridFieldEnergy {
   /// (setUnknownMap), at full coefficients c.
   void derivatives(const Eigen::VectorXd& c, Eigen::VectorXd& gradient, Eigen::SparseMatrix<double>& hessian) const;
 
+  /// Per unknown node, the unknown nodes >= it that share a cell with it (the Hessian's lower
+  /// pattern by node; setUnknownMap).
+  const std::vector<std::vector<long>>& couplings() const { return neighbours_; }
+
   double work(const Eigen::VectorXd& c) const { return external_.dot(c) + external_offset_; }
   double externalNorm() const { return external_.norm(); }
 

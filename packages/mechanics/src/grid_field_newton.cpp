@@ -10,6 +10,7 @@
 
 #include "demnerf/core/error.hpp"
 #include "extended_unknowns.hpp"
+#include "fill_reducing_order.hpp"
 #include "grid_field_energy.hpp"
 #include "shifted_cholesky.hpp"
 
@@ -20,6 +21,33 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 double secondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// Nested dissection (fill_reducing_order.hpp) of the unknown nodes' coupling graph, split by their
+// grid coordinates: the grid's Hessian is a 3-D lattice graph, which dissection orders with far
+// less fill than AMD once the extension has widened its couplings.
+std::vector<int> eliminationOrder(const GridFieldEnergy& energy, const Unknowns& unknowns, const BsplineGrid& grid) {
+  const auto& couplings = energy.couplings();
+  const int n = static_cast<int>(couplings.size());
+  std::vector<std::vector<int>> adjacency(n);
+  for (int b = 0; b < n; ++b)
+    for (long a : couplings[b]) {
+      adjacency[b].push_back(static_cast<int>(a));
+      if (a != b) adjacency[a].push_back(b);
+    }
+  std::vector<int> adj_start(n + 1, 0), adj;
+  for (int b = 0; b < n; ++b) {
+    std::sort(adjacency[b].begin(), adjacency[b].end());
+    adj.insert(adj.end(), adjacency[b].begin(), adjacency[b].end());
+    adj_start[b + 1] = static_cast<int>(adj.size());
+  }
+  const Eigen::Vector3i nn = grid.cells() + Eigen::Vector3i::Constant(grid.degree());
+  std::vector<Eigen::Vector3d> x(n);
+  for (int r = 0; r < n; ++r) {
+    const long a = energy.activeNodes()[unknowns.activeOfUnknown(r)];
+    x[r] = Eigen::Vector3d(a % nn(0), (a / nn(0)) % nn(1), a / (nn(0) * nn(1)));
+  }
+  return nestedDissection(x, adj_start, adj);
 }
 
 }  // namespace
@@ -54,6 +82,7 @@ GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const Hyper
   Eigen::VectorXd gradient;
   Eigen::SparseMatrix<double> hessian;
   ShiftedCholesky solver;
+  solver.setNodeOrder(eliminationOrder(energy, unknowns, grid));
   const auto store = [&] {
     for (std::size_t l = 0; l < active.size(); ++l) C.row(active[l]) = c.segment<3>(3 * l).transpose();
   };

@@ -199,7 +199,7 @@ TEST(DemGrid, UnsupportedCombinationsFailBeforeTraining) {
   config.grid_cell = 0.3;  // the particle spacing: too fine for the particle quadrature
   config.grid_quadrature = dm::DemConfig::GridQuadrature::kParticles;
   EXPECT_THROW(dm::DemSolver(cloud, s, config), core::Error);
-  config.grid_cell = 0.2;  // finer than the particles, which resolve the body for the cells' rule
+  config.grid_cell = 0.2;  // 0.6 particle spacings: finer than the cells' rule takes (0.75)
   config.grid_quadrature = dm::DemConfig::GridQuadrature::kCells;
   EXPECT_THROW(dm::DemSolver(cloud, s, config), core::Error);
   config.grid_cell = 0.4;
