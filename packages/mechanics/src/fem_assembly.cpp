@@ -7,6 +7,7 @@
 
 #include "demnerf/core/error.hpp"
 #include "demnerf/mechanics/boundary_conditions.hpp"
+#include "demnerf/mechanics/boundary_load_quadrature.hpp"
 #include "fem_solver_impl.hpp"
 #include "parallel_for.hpp"
 #include "fill_reducing_order.hpp"
@@ -24,21 +25,6 @@ std::vector<std::pair<Eigen::Vector4d, double>> volumeRule(int order) {
     Eigen::Vector4d L = Eigen::Vector4d::Constant(b);
     L(i) = a;
     rule.emplace_back(L, 0.25);
-  }
-  return rule;
-}
-
-// 6-point degree-4 triangle rule (Dunavant): exact for quadratic shape times linear traction.
-std::vector<std::pair<Eigen::Vector3d, double>> faceRule() {
-  std::vector<std::pair<Eigen::Vector3d, double>> rule;
-  const double a1 = 0.108103018168070, b1 = 0.445948490915965, w1 = 0.223381589678011;
-  const double a2 = 0.816847572980459, b2 = 0.091576213509771, w2 = 0.109951743655322;
-  for (int i = 0; i < 3; ++i) {
-    Eigen::Vector3d p1 = Eigen::Vector3d::Constant(b1), p2 = Eigen::Vector3d::Constant(b2);
-    p1(i) = a1;
-    p2(i) = a2;
-    rule.emplace_back(p1, w1);
-    rule.emplace_back(p2, w2);
   }
   return rule;
 }
@@ -200,37 +186,16 @@ void FemSolver::Impl::setupPattern() {
 }
 void FemSolver::Impl::setupLoads() {
   const auto faces = boundaryFaces(mesh);
-  const auto rule = faceRule();
   for (const core::Load& load : scenario.loads) {
-    struct Point {
-      int element;
-      Eigen::Vector4d L;
-    };
-    std::vector<Point> where;
+    const std::vector<BoundaryLoadPoint> where = boundaryLoadQuadrature(mesh, faces, load.region);
     std::vector<Eigen::Vector3d> points;
     std::vector<double> weights;
-    for (const BoundaryFace& face : faces) {
-      const auto c = corners(face.element);
-      int local[3], k = 0;
-      for (int v = 0; v < 4; ++v)
-        if (v != face.opposite) local[k++] = v;
-      const Eigen::Vector3d centroid = (c[local[0]] + c[local[1]] + c[local[2]]) / 3.0;
-      if (!load.region.contains(centroid)) continue;
-      const double area = 0.5 * (c[local[1]] - c[local[0]]).cross(c[local[2]] - c[local[0]]).norm();
-      for (const auto& [b, w] : rule) {
-        Eigen::Vector4d L = Eigen::Vector4d::Zero();
-        Eigen::Vector3d x = Eigen::Vector3d::Zero();
-        for (int v = 0; v < 3; ++v) {
-          L(local[v]) = b(v);
-          x += b(v) * c[local[v]];
-        }
-        where.push_back({face.element, L});
-        points.push_back(x);
-        weights.push_back(w * area);
-      }
+    for (const BoundaryLoadPoint& q : where) {
+      points.push_back(q.x);
+      weights.push_back(q.weight);
     }
     if (points.empty())
-      throw core::Error("load '" + load.name + "' selects no boundary face of the FEM mesh (face centroids): region " +
+      throw core::Error("load '" + load.name + "' selects no part of the FEM mesh's boundary: region " +
                         load.region.describe());
     const WrenchTraction t = spreadWrench(points, weights, load.force, load.torque, "load '" + load.name + "'");
     for (std::size_t q = 0; q < points.size(); ++q) {
@@ -240,7 +205,6 @@ void FemSolver::Impl::setupLoads() {
     }
   }
 }
-
 
 template <int N>
 double FemSolver::Impl::elementEnergy(const Eigen::VectorXd& x, int e) const {
