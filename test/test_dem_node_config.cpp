@@ -20,7 +20,7 @@ TEST(DemNodeConfig, DefaultsAreTheLibrarysAsForTheCli) {
   const DemNodeConfig config = DemNodeConfig::fromParameters(ParameterMap{});
   // Every solver setting, compared as the YAML that lists them all.
   EXPECT_EQ(dm::solverConfigYaml(config.simulateOptions()), dm::solverConfigYaml(dm::solverDefaults()));
-  EXPECT_EQ(config.simulateOptions().dem.grid_spacings, dm::DemConfig{}.grid_spacings);
+  EXPECT_EQ(config.simulateOptions().dem.grid.spacings, dm::DemConfig{}.grid.spacings);
   EXPECT_EQ(config.simulateOptions().voxel.order, dm::VoxelMeshConfig{}.order);
   EXPECT_EQ(config.simulateOptions().control.time_limit, dm::SolveControl{}.time_limit);
   EXPECT_EQ(config.solver, "dem");
@@ -34,8 +34,8 @@ TEST(DemNodeConfig, ParametersOverrideTheSolverConfigFile) {
                                                                            {"solve_time_limit", 20},
                                                                            {"threads", 1}});
   const dm::SimulateOptions o = config.simulateOptions();
-  EXPECT_EQ(o.dem.grid_spacings, 2.5);  // parameter over file
-  EXPECT_EQ(o.dem.width, 16);           // file over default
+  EXPECT_EQ(o.dem.grid.spacings, 2.5);  // parameter over file
+  EXPECT_EQ(o.dem.network.width, 16);           // file over default
   EXPECT_EQ(o.voxel.order, 1);
   EXPECT_EQ(o.control.time_limit, 20.0);
   EXPECT_EQ(o.dem.threads, 1);
@@ -46,17 +46,17 @@ TEST(DemNodeConfig, ParametersOverrideTheSolverConfigFile) {
 TEST(DemNodeConfig, MethodAndParametricModeUseTheLibrarysPresets) {
   const dm::SimulateOptions mlp = DemNodeConfig::fromParameters(ParameterMap{{"dem_method", "mlp"}}).simulateOptions();
   EXPECT_EQ(dm::solverConfigYaml(mlp), dm::solverConfigYaml(dm::solverDefaults("mlp")));
-  EXPECT_EQ(mlp.dem.boundary, dm::DemConfig::Boundary::kPenalty);
+  EXPECT_EQ(mlp.dem.boundary.kind, dm::DemConfig::Boundary::kPenalty);
 
   XmlRpc::XmlRpcValue range;
   range[0] = 0.0;
   range[1] = 1.5;
   const dm::DemConfig parametric =
       DemNodeConfig::fromParameters(ParameterMap{{"parametric", true}, {"load_range", range}}).simulateOptions().dem;
-  EXPECT_TRUE(parametric.parametric);
-  EXPECT_EQ(parametric.grid_spacings, 0.0);
-  EXPECT_EQ(parametric.adam_iterations, dm::paperDemConfig().adam_iterations);
-  EXPECT_EQ(parametric.load_range_max, 1.5);
+  EXPECT_TRUE(parametric.parametric.enabled);
+  EXPECT_EQ(parametric.grid.spacings, 0.0);
+  EXPECT_EQ(parametric.adam.iterations, dm::paperDemConfig().adam.iterations);
+  EXPECT_EQ(parametric.parametric.load_range_max, 1.5);
 }
 
 TEST(DemNodeConfig, BadParametersAreRejectedByName) {

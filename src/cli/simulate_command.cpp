@@ -8,8 +8,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 #include <sstream>
-#include <tuple>
 
 #include "command.hpp"
 #include "commands.hpp"
@@ -47,48 +47,41 @@ std::pair<double, double> loadRange(const std::string& range) {
   return {lo, hi};
 }
 
-/// The DEM settings of the flags over `dem` (the method's preset with the config file over it).
+/// A length flag that must be > 0 when given.
+std::optional<double> positiveFlag(const Arguments& arguments, const char* name, const char* meaning) {
+  if (!arguments.has(name)) return std::nullopt;
+  const double value = arguments.number(name);
+  if (!(value > 0)) throw UsageError(std::string("option --") + name + " expects " + meaning);
+  return value;
+}
+
+/// The DEM settings of the flags over `dem` (the method's preset with the config file over it),
+/// by the library's rules (mechanics::normalised), whose refusals are usage errors here.
 void applyDemFlags(const Arguments& arguments, mechanics::DemConfig& dem) {
-  dem.width = arguments.integer("width", dem.width);
-  dem.depth = arguments.integer("depth", dem.depth);
+  dem.network.width = arguments.integer("width", dem.network.width);
+  dem.network.depth = arguments.integer("depth", dem.network.depth);
   dem.threads = arguments.integer("threads", dem.threads);
-  if (arguments.flag("newton")) dem.output_newton = true;
-  mechanics::DemGridChoice grid;
-  if (arguments.has("iterations")) grid.adam_iterations = arguments.integer("iterations", dem.adam_iterations);
-  if (arguments.has("grid-cell")) {
-    grid.cell = arguments.number("grid-cell");
-    if (!(*grid.cell > 0))
-      throw UsageError("option --grid-cell expects the feature grid's cell edge in metres (> 0; about two particle spacings)");
-  }
-  if (arguments.has("grid-spacings")) {
-    grid.spacings = arguments.number("grid-spacings");
-    if (!(*grid.spacings > 0))
-      throw UsageError("option --grid-spacings expects the feature grid's cell in particle spacings (> 0; 2 is a good choice)");
-  }
-  if (arguments.has("grid-body-cells")) {
-    grid.body_cells = arguments.number("grid-body-cells");
-    if (!(*grid.body_cells > 0))
-      throw UsageError("option --grid-body-cells expects how many grid cells the body's volume holds (> 0; 600 suits the T-bar)");
-  }
-  dem = mechanics::withGridChoice(dem, grid);
-  const bool grid_flag = grid.cell || grid.spacings || grid.body_cells;
+  if (arguments.flag("newton")) dem.output_newton.enabled = true;
+  mechanics::DemChoice choice;
+  if (arguments.has("iterations")) choice.adam_iterations = arguments.integer("iterations", dem.adam.iterations);
+  choice.grid_cell =
+      positiveFlag(arguments, "grid-cell", "the feature grid's cell edge in metres (> 0; about two particle spacings)");
+  choice.grid_spacings = positiveFlag(arguments, "grid-spacings",
+                                      "the feature grid's cell in particle spacings (> 0; 2 is a good choice)");
+  choice.grid_body_cells = positiveFlag(arguments, "grid-body-cells",
+                                        "how many grid cells the body's volume holds (> 0; 600 suits the T-bar)");
   if (arguments.has("boundary")) {
     const std::string boundary = arguments.text("boundary");
-    if (boundary == "penalty") dem.boundary = mechanics::DemConfig::Boundary::kPenalty;
-    else if (boundary == "exact") dem.boundary = mechanics::DemConfig::Boundary::kExact;
+    if (boundary == "penalty") dem.boundary.kind = mechanics::DemConfig::Boundary::kPenalty;
+    else if (boundary == "exact") dem.boundary.kind = mechanics::DemConfig::Boundary::kExact;
     else throw UsageError("option --boundary expects exact or penalty, got '" + boundary + "'");
   }
-  if (arguments.has("load-range")) {
-    if (grid_flag)
-      throw UsageError("option --load-range trains the MLP alone (the feature grid does not take the load): drop "
-                       "--grid-cell / --grid-spacings / --grid-body-cells");
-    std::tie(dem.load_range_min, dem.load_range_max) = loadRange(arguments.text("load-range"));
-    dem.parametric = true;
+  if (arguments.has("load-range")) choice.load_range = loadRange(arguments.text("load-range"));
+  try {
+    dem = mechanics::normalised(dem, choice);
+  } catch (const core::Error& error) {
+    throw UsageError(error.what());
   }
-  if (dem.parametric) dem = mechanics::parametricDemConfig(dem);
-  if (dem.output_newton && !dem.parametric && (dem.grid_cell > 0 || dem.grid_spacings > 0 || dem.grid_body_cells > 0))
-    throw UsageError("option --newton solves the MLP's output layer, which the feature grid takes over: use "
-                     "--method mlp --boundary exact --newton");
 }
 
 /// Every setting of a run: the DEM method's preset, the config file, then the flags.
@@ -217,22 +210,22 @@ const char* usage() {
          "                         integrated in its cells, solved by Newton; mlp: the paper's DEM, the MLP\n"
          "                         alone trained by Adam\n"
          "                         ("
-      << mlp.adam_iterations << " steps per load step) with the penalty boundary\n"
+      << mlp.adam.iterations << " steps per load step) with the penalty boundary\n"
          "  --grid-body-cells N    default "
-      << number(d.dem.grid_body_cells)
+      << number(d.dem.grid.body_cells)
       << ": cell = (V / N)^(1/3) from the body's volume (never finer than the particles)\n"
          "  --grid-spacings S      default "
-      << number(d.dem.grid_spacings)
+      << number(d.dem.grid.spacings)
       << " (off): cell in particle spacings instead (below 1.5 is refused with the particle\n"
-         "                         quadrature, grid_quadrature: particles in --config; docs/dem_feature_grid.md)\n"
+         "                         quadrature, grid: {quadrature: particles} in --config; docs/dem_feature_grid.md)\n"
          "  --grid-cell H          default "
-      << number(d.dem.grid_cell)
+      << number(d.dem.grid.cell)
       << " (off): cell edge in m; takes precedence over both; any grid flag sets Adam to 0\n"
          "  --iterations N         Adam iterations per load step (default: grid "
-      << d.dem.adam_iterations << ", mlp " << mlp.adam_iterations << ", PINN " << d.pinn.adam_iterations
+      << d.dem.adam.iterations << ", mlp " << mlp.adam.iterations << ", PINN " << d.pinn.adam_iterations
       << ")\n"
          "  --width W, --depth D   MLP hidden units per layer and hidden layers (default "
-      << d.dem.width << ", " << d.dem.depth << "; PINN " << d.pinn.width << ", " << d.pinn.depth
+      << d.dem.network.width << ", " << d.dem.network.depth << "; PINN " << d.pinn.width << ", " << d.pinn.depth
       << ")\n"
          "  --boundary exact|penalty  fixtures held exactly, u = g + D z (grid default), or by the paper's\n"
          "                         penalty W_u MSE_u (mlp default; the feature grid needs exact)\n"
