@@ -23,10 +23,10 @@ Figures runSample(const Arguments& arguments) {
                            "surface-volumes", "json", "quiet"});
   if (arguments.has("mesh") == arguments.has("model")) throw UsageError("give either --mesh or --model");
   const std::string out_path = arguments.text("out");
-  geometry::SamplerConfig config;
-  config.method = geometry::parseSamplingMethod(arguments.text("method", "poisson"));
+  geometry::SamplerConfig config;  // its method and seed are the defaults, as nerf_node's
+  config.method = geometry::parseSamplingMethod(arguments.text("method", geometry::samplingMethodName(config.method)));
   config.spacing = arguments.number("spacing");
-  const int seed = arguments.integer("seed", 1);
+  const int seed = arguments.integer("seed", static_cast<int>(config.seed));
   if (seed < 0) throw UsageError("option --seed expects a non-negative integer, got " + std::to_string(seed));
   config.seed = static_cast<std::uint64_t>(seed);
   const std::string weights = arguments.text("weights", "voronoi");

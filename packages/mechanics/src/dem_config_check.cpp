@@ -27,10 +27,10 @@ void checkNetwork(const DemConfig& config) {
 void checkGridSettings(const DemConfig& config) {
   if (config.grid.cell < 0 || !std::isfinite(config.grid.cell) || config.grid.spacings < 0 ||
       !std::isfinite(config.grid.spacings) || !(config.grid.body_cells >= 0) || !std::isfinite(config.grid.body_cells))
-    throw core::Error("DEM grid_cell, grid_spacings and grid_body_cells must be finite and >= 0 (0: no feature grid)");
+    throw core::Error("DEM grid.cell, grid.spacings and grid.body_cells must be finite and >= 0 (0: no feature grid)");
   if (!(config.grid.surface_share >= 0 && config.grid.surface_share <= 1) || !(config.grid.refine_band >= 0) ||
       !std::isfinite(config.grid.refine_band))
-    throw core::Error("DEM grid_surface_share must lie in [0, 1] and grid_refine_band be finite and >= 0");
+    throw core::Error("DEM grid.surface_share must lie in [0, 1] and grid.refine_band be finite and >= 0");
 }
 
 // A resolved grid against the particles that integrate it or carry its loads.
@@ -38,19 +38,19 @@ void checkGridAgainstParticles(const DemConfig& config, double spacing) {
   if (config.grid.cell > 0 && (config.parametric.enabled || config.boundary.kind != DemConfig::Boundary::kExact ||
                                config.output_newton.enabled))
     throw core::Error(
-        "the DEM feature grid (grid_cell > 0) needs the exact boundary mode and works without parametric mode and "
-        "the output-layer Newton; turn those off or set grid_cell = 0");
+        "the DEM feature grid (grid.cell > 0) needs the exact boundary mode and works without parametric mode and "
+        "the output-layer Newton; turn those off or set grid.cell = 0");
   const bool particles = config.grid.quadrature == DemConfig::GridQuadrature::kParticles;
   // The particles as quadrature: a cell of about one particle spacing has modes the particles
   // cannot see, and Newton finds them (a twisted bar: 80 % error at 1 spacing).
   if (config.grid.cell > 0 && particles && config.grid.cell < 1.5 * spacing)
-    throw core::Error("DEM grid_cell " + std::to_string(config.grid.cell) + " m is below 1.5 particle spacings (" +
+    throw core::Error("DEM grid.cell " + std::to_string(config.grid.cell) + " m is below 1.5 particle spacings (" +
                       std::to_string(spacing) + " m): the particles cannot integrate the grid's finer modes; use " +
                       "about two spacings (" + std::to_string(2 * spacing) + " m) or more");
   // The cells' quadrature resolves the body to about one particle spacing, and the loads act on
   // the surface particles: finer cells than that would see single particles as point loads.
   if (config.grid.cell > 0 && !particles && config.grid.cell < spacing)
-    throw core::Error("DEM grid_cell " + std::to_string(config.grid.cell) + " m is finer than the particle spacing (" +
+    throw core::Error("DEM grid.cell " + std::to_string(config.grid.cell) + " m is finer than the particle spacing (" +
                       std::to_string(spacing) + " m), which resolves the body and its loads; use a coarser cell " +
                       "or finer particles");
 }

@@ -49,7 +49,7 @@ DemSolver::DemSolver(core::ParticleCloud cloud, const core::Scenario& scenario, 
     m.grid = std::make_unique<BsplineGrid>(box.center - box.half - margin, box.center + box.half + margin,
                                            config.grid.cell, config.grid.degree);
     if (m.grid->nodeCount() > 4000000)
-      throw core::Error("DEM feature grid of " + std::to_string(m.grid->nodeCount()) + " nodes: grid_cell " +
+      throw core::Error("DEM feature grid of " + std::to_string(m.grid->nodeCount()) + " nodes: grid.cell " +
                         std::to_string(config.grid.cell) + " m is far too fine for a body of " +
                         std::to_string(m.length) + " m; use a cell of a few particle spacings");
     m.grid_coef = torch::zeros({m.grid->nodeCount(), 3}, torch::TensorOptions().dtype(m.dtype)).requires_grad_(true);

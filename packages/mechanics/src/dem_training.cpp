@@ -84,7 +84,7 @@ void DemSolver::Impl::solveOutputLayer(double scale) {
 }
 
 // Parametric mode: one Adam run over the whole load range. Each step draws
-// parametric_samples load fractions (stratified over the range) and minimises the sum of their
+// parametric.samples load fractions (stratified over the range) and minimises the sum of their
 // potential energies, each divided by its own scale (energy grows with the load squared), so
 // small and large loads are learnt alike. False when a sample inverts particles or turns NaN.
 bool DemSolver::Impl::trainParametric(int& iterations) {

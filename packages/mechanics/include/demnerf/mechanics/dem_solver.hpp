@@ -15,11 +15,8 @@
 
 namespace demnerf::mechanics {
 
-/// Every DEM setting, grouped by the part of the solver it steers; the defaults are the product's
-/// DEM (feature grid sized from the body, cell quadrature, Newton, no Adam). Each field: what it
-/// is and its default; why each default is what it is (and the measurements) is in
-/// docs/dem_config.md. config/solvers.yaml lists every key; `demnerf simulate` and dem_node start
-/// from these values.
+/// How fixtures are held (DemConfig::Boundary) and how the feature grid is integrated
+/// (DemConfig::GridQuadrature); docs/dem_config.md.
 enum class DemBoundary { kExact, kPenalty };
 enum class DemGridQuadrature { kCells, kParticles };
 
@@ -91,6 +88,11 @@ struct DemParametricConfig {
   int samples = 4;               ///< load fractions drawn per Adam step (4)
 };
 
+/// Every DEM setting, grouped by the part of the solver it steers; the defaults are the product's
+/// DEM (feature grid sized from the body, cell quadrature, Newton, no Adam). Each field: what it
+/// is and its default; why each default is what it is (and the measurements) is in
+/// docs/dem_config.md. config/solvers.yaml lists every key; `demnerf simulate` and dem_node start
+/// from these values.
 struct DemConfig {
   using Boundary = DemBoundary;
   using GridQuadrature = DemGridQuadrature;
