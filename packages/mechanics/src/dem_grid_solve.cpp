@@ -18,7 +18,7 @@ using torch::Tensor;
 using torch_support::toTensor;
 
 // The grid Newton's quadrature: the particles' own volumes (midpoint rule) with a small share on
-// the surface particles (DemConfig::grid.surface_share), interior particles near a fixture or
+// the surface particles (DemConfig::grid_surface_share), interior particles near a fixture or
 // load split into 2 x 2 x 2 sub-points of their cube (Newton has no jitter to catch a ramp
 // between a region and the first particle layer).
 void DemSolver::Impl::buildGridQuadrature() {
@@ -82,7 +82,7 @@ void DemSolver::Impl::buildParticleGridQuadrature() {
 
 // Newton on the feature grid's coefficients with the MLP frozen (grid_field_newton.hpp), on the
 // grid quadrature: the best field in MLP + grid with the MLP's share fixed.
-// False when Newton does not converge within grid.newton_iterations (the load step then counts as
+// False when Newton does not converge within grid_newton_iterations (the load step then counts as
 // failed and is halved).
 bool DemSolver::Impl::solveGrid(double scale, int& iterations) {
   torch::NoGradGuard guard;
@@ -141,7 +141,7 @@ std::string DemSolver::Impl::gridFailureAdvice() const {
        << ", smallest det F " << last_grid.min_J
        << "). Likely causes: a load too large for the material (try a smaller load or more load_steps), a fixture "
           "that holds too little of the body, or a grid too coarse for the body's thinnest part (raise "
-          "grid.body_cells or lower grid.cell); grid.newton_iterations raises the iteration cap.";
+          "grid_body_cells or lower grid_cell); grid_newton_iterations raises the iteration cap.";
   return text.str();
 }
 
@@ -160,7 +160,7 @@ void DemSolver::Impl::checkAnswer(const DemReport& report) const {
     throw SolveError(SolveFailure::kNotConverged,
                      "DEM: the answer's potential energy " + std::to_string(report.energy) +
                          " J is above the undeformed state's 0 J, so it is no minimum under these dead loads; " +
-                         (grid ? gridFailureAdvice() : std::string("train longer (adam.iterations) or use the feature grid")));
+                         (grid ? gridFailureAdvice() : std::string("train longer (adam_iterations) or use the feature grid")));
 }
 
 }  // namespace demnerf::mechanics
