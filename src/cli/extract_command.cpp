@@ -2,6 +2,8 @@
 // NeRF's density, sampled on cubic cells over the model's box).
 
 #include <chrono>
+#include <sstream>
+#include <string>
 
 #include "command.hpp"
 #include "commands.hpp"
@@ -14,28 +16,32 @@
 namespace demnerf::cli {
 namespace {
 
+std::string number(double value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
+
 Figures runExtract(const Arguments& arguments) {
   arguments.rejectUnknown({"model", "mesh", "resolution", "surface", "opacity", "threshold", "max-faces", "smooth",
                            "json", "quiet"});
   const std::string model_path = arguments.text("model");
   const std::string mesh_path = arguments.text("mesh");
-  // 192 cells along the longest side (2 mm on the T-bar): volume within 1 % and ~340k faces in
-  // ~3 s; 256 is slower, has ~630k faces and, for the opacity surface, no better volume.
-  const int resolution = arguments.integer("resolution", 192);
+  const dem_nerf::SurfaceDefaults defaults;  // shared with `demnerf sample` and nerf_node
+  const int resolution = arguments.integer("resolution", defaults.resolution);
   if (resolution < 8 || resolution > 1024) {
     throw UsageError("option --resolution expects 8..1024, got " + std::to_string(resolution));
   }
   geometry::MeshExtractionConfig config;
-  // The surface as rendered (opacity 0.15 along the clearest axis) is the default: on the
-  // T-bar it gives the volume within 3 % where instant-ngp's density 2.5 gives +16 %.
-  // --threshold alone keeps its old meaning.
+  // The surface as rendered (opacity along the clearest axis) is the default; --threshold alone
+  // keeps its old meaning (instant-ngp's density iso-surface).
   const std::string surface = arguments.text("surface", arguments.has("threshold") ? "density" : "opacity");
   try {
     config.surface = geometry::parseSurfaceDefinition(surface);
   } catch (const core::Error&) {
     throw UsageError("option --surface expects density or opacity, got '" + surface + "'");
   }
-  config.opacity = arguments.number("opacity", 0.15);
+  config.opacity = arguments.number("opacity", defaults.opacity);
   config.threshold = arguments.number("threshold", config.threshold);
   // At 192 cells the T-bar's surface has ~340k faces; a budget of 200k costs ~3-5 s of edge collapse
   // (shortest edge first, midpoint placement: 2x faster than Lindstrom-Turk, same accuracy here).
@@ -74,8 +80,16 @@ Figures runExtract(const Arguments& arguments) {
 
 const Command kExtractCommand = {
     "extract", "surface mesh from a model's density",
-    "--model MODEL --mesh OUT.ply [--resolution 192 (cells along the longest side)] [--surface opacity|density] "
-    "[--opacity 0.15] [--threshold 2.5 (density surface)] [--max-faces 0 (0: keep all)] [--smooth 0] [--json]",
+    [] {
+      // The defaults printed are the ones that run (dem_nerf::SurfaceDefaults, as nerf_node's).
+      static const std::string text = "--model MODEL --mesh OUT.ply [--resolution " +
+                                      std::to_string(dem_nerf::SurfaceDefaults{}.resolution) +
+                                      " (cells along the longest side)] [--surface opacity|density] [--opacity " +
+                                      number(dem_nerf::SurfaceDefaults{}.opacity) +
+                                      "] [--threshold 2.5 (density surface)] [--max-faces 0 (0: keep all)] "
+                                      "[--smooth 0] [--json]";
+      return text.c_str();
+    }(),
     runExtract};
 
 }  // namespace demnerf::cli

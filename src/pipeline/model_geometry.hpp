@@ -4,10 +4,8 @@
 
 #include "demnerf/core/ply.hpp"
 #include "demnerf/geometry/mesh_from_density.hpp"
-
-/// The surface the pipeline extracts unless told otherwise: where the body reaches opacity 0.15
-/// seen from outside, on 192 cubic cells along the longest side (the T-bar: ~1 % volume error).
 #include "demnerf/nerf/model.hpp"
+#include "pipeline/surface_defaults.hpp"
 
 namespace dem_nerf {
 
