@@ -19,9 +19,11 @@ SCENARIO=${SCENARIO:-config/scenarios/tbar_twist.yaml}
 # is BOX=xmin,ymin,zmin,xmax,ymax,zmax or the scenario's sidecar file <scenario>.box (one line).
 BOX=${BOX:-}
 [ -n "$BOX" ] || [ ! -f "${SCENARIO%.yaml}.box" ] || BOX=$(grep -v '^#' "${SCENARIO%.yaml}.box" | head -n 1 | tr -d ' ')
-CAPTURE_SECONDS=${CAPTURE_SECONDS:-180}   # NeRF training on a real capture (2 cores: 120-300 s)
+CAPTURE_SECONDS=${CAPTURE_SECONDS:-300}   # NeRF training on a real capture (2 cores: 120-300 s)
 CAPTURE_DOWNSCALE=${CAPTURE_DOWNSCALE:-4}  # the fox's 1080 x 1920 photos at 1/4
-CAPTURE_SPACING=${CAPTURE_SPACING:-0.02}   # particle spacing in the scene's units
+CAPTURE_SPACING=${CAPTURE_SPACING:-0.05}   # particle spacing in the scene's units (fox: ~1.5 across)
+CAPTURE_SURFACE=${CAPTURE_SURFACE:-"--surface density --threshold 20"}  # fog-free on the fox; see README
+# CAPTURE_MODEL=<model.nerf>: skip training and use a model trained before on the same capture.
 mkdir -p "$OUT"
 REPORT="$OUT/report.md"
 printf '# dem_nerf demo\n\n| stage | figures |\n| --- | --- |\n' > "$REPORT"
@@ -85,9 +87,13 @@ ros_run() {
 capture_run() {
   local nerf_config="$ROOT/packages/nerf/config/nerf_fox.yaml"
   [ -n "${CAPTURE_CONFIG:-}" ] && nerf_config=$CAPTURE_CONFIG
-  stage train "$CLI" train --data "$DATA" --out "$OUT/model.nerf" --seconds "$CAPTURE_SECONDS" \
-    --downscale "$CAPTURE_DOWNSCALE" --config "$nerf_config" || return 1
-  stage extract "$CLI" extract --model "$OUT/model.nerf" --mesh "$OUT/mesh.ply" --box "$BOX" --resolution 160 \
+  if [ -n "${CAPTURE_MODEL:-}" ]; then  # a model trained earlier on the same capture: reused as is
+    cp "$CAPTURE_MODEL" "$OUT/model.nerf" || return 1
+  else
+    stage train "$CLI" train --data "$DATA" --out "$OUT/model.nerf" --seconds "$CAPTURE_SECONDS" \
+      --downscale "$CAPTURE_DOWNSCALE" --config "$nerf_config" || return 1
+  fi
+  stage extract "$CLI" extract --model "$OUT/model.nerf" --mesh "$OUT/mesh.ply" --box="$BOX" --resolution 128 $CAPTURE_SURFACE \
     || return 1
   stage sample "$CLI" sample --mesh "$OUT/mesh.ply" --spacing "$CAPTURE_SPACING" --out "$OUT/particles.ply" || return 1
   stage simulate "$CLI" simulate --particles "$OUT/particles.ply" --scenario "$SCENARIO" --solver "$SOLVER" \
