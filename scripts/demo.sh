@@ -56,7 +56,8 @@ if [ -z "$DATA" ]; then
   [ -f "$DATA/transforms_train.json" ] || stage synth "$CLI" synth --scene tbar --out "$DATA"
 fi
 stage info "$CLI" info --data "$DATA"
-stage bag "$CLI" bag --data "$DATA" --out "$OUT/dataset.bag"
+# The bag feeds the ROS run only; a capture with a box goes through the CLI (capture_run below).
+[ -n "$BOX" ] || stage bag "$CLI" bag --data "$DATA" --out "$OUT/dataset.bag"
 # The ROS run, as on a rig: the bag replays the cameras into nerf_node, which trains for
 # TRAIN_SECONDS, extracts the body and publishes particles; dem_node solves the scenario's twist on
 # them; demo_recorder keeps both clouds as files and ends the launch.
