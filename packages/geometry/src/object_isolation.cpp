@@ -46,9 +46,11 @@ std::vector<int> labelPieces(const DensityGrid& field, double level, std::vector
 }
 
 std::string emptyBoxMessage(const DensityGrid& boxed, double peak, double level, bool opacity) {
-  const Eigen::Vector3d low = boxed.origin, high = boxed.node(boxed.dims.x() - 1, boxed.dims.y() - 1, boxed.dims.z() - 1);
+  const Eigen::Vector3d low = boxed.origin;
+  const Eigen::Vector3d high = boxed.node(boxed.dims.x() - 1, boxed.dims.y() - 1, boxed.dims.z() - 1);
   std::ostringstream message;
-  message << "the box " << formatBox(Eigen::AlignedBox3d(low, high)) << " is empty: no point inside reaches the surface ("
+  message << "the box (grid nodes " << formatBox(Eigen::AlignedBox3d(low, high))
+          << ") is empty: no point inside reaches the surface ("
           << (opacity ? "optical depth " : "density ") << level << "; the largest inside is " << peak
           << "). The box is given in the model's frame (the poses' units, as `demnerf info` prints the scene box): "
           << "check its axes and units, or that the model is trained";
@@ -143,7 +145,8 @@ MeshExtractionResult isolateObject(const DensityGrid& boxed, const MeshExtractio
     for (std::size_t p = 0; p < std::min<std::size_t>(out.pieces, 5); ++p) message << ' ' << out.piece_nodes[p];
     message << (out.pieces > 5 ? " ..." : "") << "); the second is " << out.piece_nodes[1] << " nodes, at least "
             << isolation.max_second_piece_fraction << " of the largest, so the box takes in more than one object:"
-            << " shrink the box around the one to simulate (or raise max_second_piece_fraction to keep the largest)";
+            << " shrink the box around the one to simulate, or allow a larger second piece to keep the largest anyway"
+            << " (demnerf extract --max-second-piece)";
     throw core::Error(message.str());
   }
   for (std::size_t id = 0; id < label.size(); ++id) {
