@@ -4,6 +4,7 @@
 
 #include "demnerf/core/ply.hpp"
 #include "demnerf/geometry/mesh_from_density.hpp"
+#include "demnerf/geometry/object_isolation.hpp"
 #include "demnerf/nerf/model.hpp"
 #include "pipeline/surface_defaults.hpp"
 
@@ -11,6 +12,11 @@ namespace dem_nerf {
 
 /// The model's density on cubic cells over its scene box, `resolution` along the longest side.
 demnerf::geometry::DensityGrid densityGridOf(const demnerf::nerf::NerfModel& model, int resolution);
+
+/// The model's density on cubic cells over `box` (the scene's frame), closed at the box's faces:
+/// the input of geometry::isolateObject for one object of a real capture.
+demnerf::geometry::DensityGrid densityGridInBox(const demnerf::nerf::NerfModel& model, const Eigen::AlignedBox3d& box,
+                                                int resolution);
 
 /// The closed surface of the model (config says which: density level or opacity from outside).
 demnerf::geometry::MeshExtractionResult extractSurface(const demnerf::nerf::NerfModel& model, int resolution,
