@@ -3,14 +3,13 @@
 // energy, residual and tangent at a state.
 #include <algorithm>
 #include <cmath>
-#include <thread>
 
 #include "demnerf/core/error.hpp"
 #include "demnerf/mechanics/boundary_conditions.hpp"
 #include "demnerf/mechanics/boundary_load_quadrature.hpp"
 #include "fem_solver_impl.hpp"
-#include "parallel_for.hpp"
 #include "fill_reducing_order.hpp"
+#include "parallel_for.hpp"
 
 namespace demnerf::mechanics {
 namespace {

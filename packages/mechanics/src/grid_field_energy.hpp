@@ -87,6 +87,8 @@ class GridFieldEnergy {
   Eigen::SparseMatrix<double> pattern_;        // lower triangle of the Hessian in the unknowns
   Eigen::VectorXd external_;
   double external_offset_ = 0.0;
+  // derivatives()'s per-thread Hessian values and gradients, reused (not thread-safe: one caller).
+  mutable std::vector<Eigen::VectorXd> scratch_values_, scratch_gradients_;
 };
 
 }  // namespace demnerf::mechanics

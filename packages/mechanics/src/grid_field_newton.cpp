@@ -5,8 +5,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <limits>
-#include <numeric>
 
 #include "demnerf/core/error.hpp"
 #include "extended_unknowns.hpp"
@@ -16,8 +14,6 @@
 
 namespace demnerf::mechanics {
 namespace {
-
-constexpr double kInf = std::numeric_limits<double>::infinity();
 
 double secondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -94,16 +94,18 @@ class ShiftedCholesky {
 
   // LDL^T of the lower triangle H in the cheaper order; true when positive definite.
   bool factorise(const Eigen::SparseMatrix<double>& H) {
+    Eigen::SparseMatrix<double> ordered;
+    if (ordered_) ordered = permuted(H);
     if (!analysed_) {
       amd_ldlt_.analyzePattern(H);
       if (ordered_) {
-        ordered_ldlt_.analyzePattern(permuted(H));
+        ordered_ldlt_.analyzePattern(ordered);
         ordered_ = ordered_ldlt_.operations() < amd_ldlt_.operations();
       }
       analysed_ = true;
     }
     if (ordered_) {
-      ordered_ldlt_.factorize(permuted(H));
+      ordered_ldlt_.factorize(ordered);
       return ordered_ldlt_.info() == Eigen::Success && ordered_ldlt_.vectorD().minCoeff() > 0;
     }
     amd_ldlt_.factorize(H);

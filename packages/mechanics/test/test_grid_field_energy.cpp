@@ -58,6 +58,15 @@ Eigen::SparseMatrix<double> expandComponents(const Eigen::SparseMatrix<double>& 
   return map;
 }
 
+// A small random state (metres): well inside the admissible set, far from the undeformed one.
+Eigen::VectorXd randomCoefficients(long count, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> small(0.0, 1e-3);
+  Eigen::VectorXd c(count);
+  for (Eigen::Index k = 0; k < c.size(); ++k) c(k) = small(rng);
+  return c;
+}
+
 Eigen::MatrixXd symmetric(const Eigen::SparseMatrix<double>& lower) {
   const Eigen::SparseMatrix<double> full = lower.selfadjointView<Eigen::Lower>();
   return Eigen::MatrixXd(full);
@@ -72,10 +81,7 @@ TEST(GridFieldEnergy, ReducedHessianIsTheProjectionOfTheFullOneOnAnyThreadCount)
   ASSERT_LT(ext.kept.size(), active.size()) << "the slab must have extrapolated nodes";
   full_energy.setUnknownMap({});
 
-  std::mt19937 rng(5);
-  std::normal_distribution<double> small(0.0, 1e-3);
-  Eigen::VectorXd c(full_energy.unknowns());
-  for (Eigen::Index k = 0; k < c.size(); ++k) c(k) = small(rng);
+  const Eigen::VectorXd c = randomCoefficients(full_energy.unknowns(), 5);
   Eigen::VectorXd g_full;
   Eigen::SparseMatrix<double> h_full;
   full_energy.derivatives(c, g_full, h_full);
@@ -100,10 +106,7 @@ TEST(GridFieldEnergy, GradientMatchesFiniteDifferencesOfTheEnergy) {
   const NeoHookean material(1e4, 2e4);
   GridFieldEnergy energy(slab.problem, material, slab.grid, 2);
   energy.setUnknownMap({});
-  std::mt19937 rng(9);
-  std::normal_distribution<double> small(0.0, 1e-3);
-  Eigen::VectorXd c(energy.unknowns());
-  for (Eigen::Index k = 0; k < c.size(); ++k) c(k) = small(rng);
+  const Eigen::VectorXd c = randomCoefficients(energy.unknowns(), 9);
   Eigen::VectorXd g;
   Eigen::SparseMatrix<double> h;
   energy.derivatives(c, g, h);
