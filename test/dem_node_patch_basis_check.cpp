@@ -19,6 +19,10 @@
 
 namespace {
 
+// The first wrench waits for the basis' 9 DEM solves: about 10 s on a quiet 2-core machine, but a
+// loaded CI machine has taken 9x longer. The test asserts which path answered, not how fast.
+constexpr double kAnswerSeconds = 240.0;
+
 struct Answer {
   Eigen::Vector3d tip = Eigen::Vector3d::Zero();  // mean displacement of the free end
   double seconds = 0.0;                           // from the wrench to the displaced cloud
@@ -72,7 +76,7 @@ class PatchBasisCheck {
           answer->tip /= std::max(count, 1);
           return true;
         },
-        90);
+        kAnswerSeconds);
     return answer;
   }
 

@@ -23,12 +23,15 @@ using torch_support::toTensor;
 // between a region and the first particle layer).
 void DemSolver::Impl::buildGridQuadrature() {
   if (config.grid.quadrature == DemConfig::GridQuadrature::kCells) {
-    CellQuadratureConfig cq;
-    cq.points_per_axis = config.grid.gauss_points;
-    cq.boundary_levels = config.grid.boundary_levels;
-    CellQuadrature q = cellQuadrature(cloud, *grid, cq);
-    gq_points = std::move(q.points);
-    gq_volume = std::move(q.weights);
+    if (!gq_from_cells) {
+      CellQuadratureConfig cq;
+      cq.points_per_axis = config.grid.gauss_points;
+      cq.boundary_levels = config.grid.boundary_levels;
+      CellQuadrature q = cellQuadrature(cloud, *grid, cq);
+      gq_points = std::move(q.points);
+      gq_volume = std::move(q.weights);
+      gq_from_cells = true;
+    }
   } else {
     buildParticleGridQuadrature();
   }
@@ -112,6 +115,7 @@ bool DemSolver::Impl::solveGrid(double scale, int& iterations) {
   newton.max_iterations = config.grid.newton_iterations;
   newton.extension_fill = config.grid.extension_fill;
   newton.threads = config.threads;
+  newton.cache = &grid_newton_cache;
   const int before = iterations;
   newton.on_iteration = [&](int it, double energy, double residual) {
     tick("newton", scale, before + it, energy, residual);

@@ -46,7 +46,26 @@ std::vector<int> eliminationOrder(const GridFieldEnergy& energy, const Unknowns&
   return nestedDissection(x, adj_start, adj);
 }
 
+// The unknowns a factorisation belongs to: the active nodes and which of them are unknowns.
+std::vector<long> unknownNodes(const GridFieldEnergy& energy, const Unknowns& unknowns) {
+  std::vector<long> key = energy.activeNodes();
+  key.push_back(-1);
+  for (long r = 0; r < static_cast<long>(energy.couplings().size()); ++r) key.push_back(unknowns.activeOfUnknown(r));
+  return key;
+}
+
 }  // namespace
+
+struct GridNewtonCache::State {
+  std::vector<long> unknown_nodes;
+  ShiftedCholesky solver;
+};
+
+GridNewtonCache::GridNewtonCache() = default;
+GridNewtonCache::~GridNewtonCache() = default;
+GridNewtonCache::GridNewtonCache(GridNewtonCache&&) noexcept = default;
+GridNewtonCache& GridNewtonCache::operator=(GridNewtonCache&&) noexcept = default;
+void GridNewtonCache::clear() { state.reset(); }
 
 GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const HyperelasticMaterial& material,
                                     const BsplineGrid& grid, Eigen::MatrixXd& C, const GridNewtonConfig& config) {
@@ -77,8 +96,15 @@ GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const Hyper
   }
   Eigen::VectorXd gradient;
   Eigen::SparseMatrix<double> hessian;
-  ShiftedCholesky solver;
-  solver.setNodeOrder(eliminationOrder(energy, unknowns, grid));
+  GridNewtonCache local;
+  GridNewtonCache& cache = config.cache ? *config.cache : local;
+  std::vector<long> unknown_nodes = unknownNodes(energy, unknowns);
+  if (!cache.state || cache.state->unknown_nodes != unknown_nodes) {
+    cache.state = std::make_unique<GridNewtonCache::State>();
+    cache.state->unknown_nodes = std::move(unknown_nodes);
+    cache.state->solver.setNodeOrder(eliminationOrder(energy, unknowns, grid));
+  }
+  ShiftedCholesky& solver = cache.state->solver;
   const auto store = [&] {
     for (std::size_t l = 0; l < active.size(); ++l) C.row(active[l]) = c.segment<3>(3 * l).transpose();
   };

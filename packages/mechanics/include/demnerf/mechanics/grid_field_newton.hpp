@@ -11,6 +11,7 @@
 
 #include <Eigen/Core>
 #include <functional>
+#include <memory>
 #include <vector>
 
 #include "demnerf/mechanics/bspline_grid.hpp"
@@ -30,6 +31,23 @@ struct GridFieldProblem {
   std::vector<Eigen::Matrix3d> grad_D;       ///< (i, k) = d D_i / d X_k
   std::vector<Eigen::Vector3d> surface_points, surface_offset, surface_D;
   std::vector<Eigen::Vector3d> surface_force;  ///< traction times area (N)
+};
+
+/// What one minimiseGridField call hands to the next on the same grid and quadrature: the
+/// elimination order and the last factorisation, which then preconditions the next call's first
+/// Newton steps instead of a new factorisation per call. Repeated solves of one body (a load
+/// ramp's steps, a patch basis' 27 small-load solves) are dominated by factorisations otherwise.
+/// Used only while the unknowns are the same; a different set resets it.
+class GridNewtonCache {
+ public:
+  GridNewtonCache();
+  ~GridNewtonCache();
+  GridNewtonCache(GridNewtonCache&&) noexcept;
+  GridNewtonCache& operator=(GridNewtonCache&&) noexcept;
+  void clear();
+
+  struct State;  // grid_field_newton.cpp
+  std::unique_ptr<State> state;
 };
 
 struct GridNewtonConfig {
@@ -54,6 +72,8 @@ struct GridNewtonConfig {
   /// Called after each assembly with the iteration, the energy and the relative residual; it may
   /// throw (a time limit, a cancel): C then holds the last accepted coefficients.
   std::function<void(int iteration, double energy, double residual)> on_iteration;
+  /// Kept between calls by the caller (nullptr: every call factorises afresh).
+  GridNewtonCache* cache = nullptr;
 };
 
 struct GridNewtonOutcome {
