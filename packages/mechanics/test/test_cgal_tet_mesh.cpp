@@ -62,11 +62,13 @@ TEST(CgalTetMesh, BoxIsFilledWithPositiveTetrahedraAndKeepsItsFaces) {
   const dm::TetMesh again = dm::cgalMeshFromSurface(dm::boxSurface(lo, hi), config);
   EXPECT_NEAR(static_cast<double>(again.nodes.size()), static_cast<double>(mesh.nodes.size()),
               0.02 * static_cast<double>(mesh.nodes.size()));
-  // Linear order: four corners, no midpoints.
+  // Linear order: four corners, no midpoints, on a mesh as fine as the quadratic one (a new call:
+  // the element count varies by a few percent with the heap, 417 vs 427 seen on CI-like loads).
   config.order = 1;
   const dm::TetMesh linear = dm::cgalMeshFromSurface(dm::boxSurface(lo, hi), config);
   EXPECT_EQ(linear.order, 1);
-  EXPECT_EQ(linear.elements.size(), mesh.elements.size());
+  EXPECT_NEAR(static_cast<double>(linear.elements.size()), static_cast<double>(mesh.elements.size()),
+              0.05 * static_cast<double>(mesh.elements.size()));
   for (const auto& e : linear.elements) EXPECT_EQ(e[4], -1);
 }
 
