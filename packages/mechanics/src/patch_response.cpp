@@ -62,7 +62,8 @@ core::Scenario PatchResponse::scenarioFor(const Eigen::Vector3d& force, const Ei
   return scenario;
 }
 
-core::ResultField PatchResponse::fullSolve(const core::Scenario& scenario, const SolveControl& control) {
+core::ResultField PatchResponse::fullSolve(const core::Scenario& scenario, const SolveControl& control,
+                                           double* energy) {
   try {
     if (solver_) {
       solver_->setScenario(scenario);
@@ -70,7 +71,8 @@ core::ResultField PatchResponse::fullSolve(const core::Scenario& scenario, const
       solver_ = std::make_unique<DemSolver>(cloud_, scenario, dem_);
     }
     solver_->setControl(control);
-    solver_->solve();
+    const DemReport report = solver_->solve();
+    if (energy) *energy = report.energy;
     return solver_->result();
   } catch (...) {
     solver_.reset();  // half-solved: the next one starts cold
@@ -175,7 +177,7 @@ PatchAnswer PatchResponse::answer(const Eigen::Vector3d& force, const Eigen::Vec
     answer.field = superpose(force, torque);
     answer.path = "basis";
   } else {
-    answer.field = fullSolve(scenarioFor(force, torque), control);
+    answer.field = fullSolve(scenarioFor(force, torque), control, &answer.energy);
     answer.path = "full";
   }
   answer.seconds = secondsSince(start);

@@ -64,6 +64,7 @@ TEST(PatchResponse, AWrenchInTheRangeIsTheBasisAndCloseToAFullSolve) {
   EXPECT_FALSE(response.answersFor(elsewhere)) << "another patch";
   const dm::PatchAnswer fast = response.answer(force, torque);
   EXPECT_EQ(fast.path, "basis");
+  EXPECT_TRUE(std::isnan(fast.energy)) << "a basis answer has no energy of its own";
   dm::DemSolver full(cloud, response.scenarioFor(force, torque), dem);
   full.solve();
   const double error = relativeL2(fast.field.displacements, full.result().displacements);
@@ -74,6 +75,7 @@ TEST(PatchResponse, AWrenchInTheRangeIsTheBasisAndCloseToAFullSolve) {
   EXPECT_FALSE(response.covers(outside, Vector3d::Zero()));
   const dm::PatchAnswer slow = response.answer(outside, Vector3d::Zero());
   EXPECT_EQ(slow.path, "full");
+  EXPECT_LT(slow.energy, 0.0) << "a dead-load equilibrium lies below the undeformed state's 0 J";
   double tip = 0.0;
   for (std::size_t i = 0; i < cloud.size(); ++i)
     if (cloud.positions[i].x() > 0.1 - 1e-9) tip = std::max(tip, slow.field.displacements[i].x());

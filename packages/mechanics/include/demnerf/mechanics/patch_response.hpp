@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 #include <initializer_list>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -31,6 +32,8 @@ struct PatchResponseConfig {
 struct PatchAnswer {
   core::ResultField field;  ///< basis answers: displacements only (von Mises 0: not computed)
   std::string path;         ///< "basis" (superposed) or "full" (a warm-started DEM solve)
+  /// Potential energy at the answer (J): the full solve's; NaN for a basis answer (not computed).
+  double energy = std::numeric_limits<double>::quiet_NaN();
   double seconds = 0.0;
 };
 
@@ -62,7 +65,7 @@ class PatchResponse {
   PatchAnswer answer(const Eigen::Vector3d& force, const Eigen::Vector3d& torque, const SolveControl& control = {});
 
  private:
-  core::ResultField fullSolve(const core::Scenario& scenario, const SolveControl& control);
+  core::ResultField fullSolve(const core::Scenario& scenario, const SolveControl& control, double* energy = nullptr);
   void unitWrench(std::initializer_list<int> ks, double sign, Eigen::Vector3d& force, Eigen::Vector3d& torque) const;
   /// The displacements (particles x 3) of the wrench a_k e_k summed over ks, times sign.
   Eigen::MatrixXd solveFor(std::initializer_list<int> ks, double sign, const SolveControl& control);
