@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "demnerf/core/error.hpp"
+#include "attached_clock.hpp"
 #include "fem_solver_impl.hpp"
 
 namespace demnerf::mechanics {
@@ -191,11 +192,7 @@ const FemResult& FemSolver::solve(const SolveControl& control) {
 }
 
 const FemResult& FemSolver::solve(SolveClock& clock) {
-  impl_->clock = &clock;
-  struct Detach {  // the clock lives only as long as this call
-    Impl& m;
-    ~Detach() { m.clock = nullptr; }
-  } detach{*impl_};
+  const AttachedClock attached(impl_->clock, clock);
   return impl_->solveAll();
 }
 
