@@ -1,16 +1,18 @@
 #pragma once
-// What the mechanics benchmarks share: the T-bar of `demnerf synth --scene tbar` as particles,
-// and small timing helpers.
+// What the mechanics benchmarks share: the T-bar of `demnerf synth --scene tbar` as particles and
+// as a surface, and small timing helpers.
 
 #include <Eigen/Core>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <random>
 #include <string>
 #include <vector>
 
 #include "demnerf/core/ply.hpp"
+#include "demnerf/mechanics/box_particles.hpp"
 
 namespace demnerf::bench {
 
@@ -70,6 +72,39 @@ inline core::ParticleCloud tbarParticles(double h) {
           }
       }
   return cloud;
+}
+
+/// `count` points drawn uniformly inside the T-bar (rejection from its box), for prediction timings.
+inline std::vector<Vector3d> pointsInTbar(std::size_t count, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> ux(-0.15, 0.15), uy(-0.03, 0.03), uz(0.0, 0.30);
+  std::vector<Vector3d> points;
+  while (points.size() < count) {
+    const Vector3d p(ux(rng), uy(rng), uz(rng));
+    if (inTbar(p)) points.push_back(p);
+  }
+  return points;
+}
+
+/// The closed surface of the T-bar (leg and bar as two touching boxes: the ray-parity voxeliser
+/// only looks at cell centres, which never lie on the shared face for these cell sizes).
+inline core::TriangleMesh tbarSurface() {
+  core::TriangleMesh surface = mechanics::boxSurface(Vector3d(-0.03, -0.03, 0.0), Vector3d(0.03, 0.03, 0.24));
+  const core::TriangleMesh bar = mechanics::boxSurface(Vector3d(-0.15, -0.03, 0.24), Vector3d(0.15, 0.03, 0.30));
+  const int offset = static_cast<int>(surface.vertices.size());
+  for (const auto& f : bar.faces) surface.faces.push_back({f[0] + offset, f[1] + offset, f[2] + offset});
+  surface.vertices.insert(surface.vertices.end(), bar.vertices.begin(), bar.vertices.end());
+  return surface;
+}
+
+/// ||u - reference|| / ||reference|| over the points (the benches' displacement error).
+inline double relativeL2(const std::vector<Vector3d>& u, const std::vector<Vector3d>& reference) {
+  double e = 0.0, r = 0.0;
+  for (std::size_t i = 0; i < u.size(); ++i) {
+    e += (u[i] - reference[i]).squaredNorm();
+    r += reference[i].squaredNorm();
+  }
+  return std::sqrt(e / r);
 }
 
 inline double since(std::chrono::steady_clock::time_point t) {

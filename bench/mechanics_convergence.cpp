@@ -42,15 +42,6 @@ struct Variant {
   std::vector<Sample> curve;
 };
 
-double relativeL2(const std::vector<Vector3d>& u, const std::vector<Vector3d>& ref) {
-  double e = 0, r = 0;
-  for (std::size_t i = 0; i < u.size(); ++i) {
-    e += (u[i] - ref[i]).squaredNorm();
-    r += ref[i].squaredNorm();
-  }
-  return std::sqrt(e / r);
-}
-
 // Log-log plot: error (1e-3 .. 1) against seconds (1e-3 .. tmax).
 void plot(const std::vector<Variant>& variants, const std::string& path, const std::string& title) {
   const int w = 720, h = 440, m = 60;
@@ -93,56 +84,62 @@ void plot(const std::vector<Variant>& variants, const std::string& path, const s
   cv::imwrite(path, img);
 }
 
-}  // namespace
+using Arguments = std::map<std::string, std::string>;
 
-int main(int argc, char** argv) {
-  std::setvbuf(stdout, nullptr, _IOLBF, 0);
-  std::map<std::string, std::string> a = demnerf::bench::keyValueArguments(argc, argv);
-  auto num = [&](const char* k, double d) { return a.count(k) ? std::atof(a[k].c_str()) : d; };
-  const std::string which = a.count("case") ? a["case"] : "uniaxial";
-  const std::string out = a.count("out") ? a["out"] : "dem_convergence_" + which;
-  const int iters = static_cast<int>(num("iters", which == "tbar" ? 600 : 1000));
-  const int every = static_cast<int>(num("every", 25));
+double number(const Arguments& a, const char* key, double fallback) {
+  const auto it = a.find(key);
+  return it != a.end() ? std::atof(it->second.c_str()) : fallback;
+}
 
+struct Problem {
   core::Scenario scenario;
   core::ParticleCloud cloud;
-  std::vector<Vector3d> ref;
-  if (which == "uniaxial") {
-    cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(6, 6, 6));
-    scenario = dm::uniaxialTractionScenario(2e5);
-    double b = 0;
-    const double s = dm::uniaxialStretchForStress(*dm::makeMaterial(scenario.material), 2e5, &b);
-    for (const auto& X : cloud.positions) ref.emplace_back((s - 1) * X.x(), (b - 1) * X.y(), (b - 1) * X.z());
-  } else {
-    scenario = core::loadScenario(std::string(DEMNERF_ROOT) + "/config/scenarios/tbar_twist.yaml");
-    cloud = tbarParticles(0.0075);
-    const std::string path = a.count("reference") ? a["reference"] : "/tmp/dem_tbar_fem_0.007500_0.010000.bin";
-    bool ok = false;
-    if (path.size() > 4 && path.substr(path.size() - 4) == ".ply") {
-      // A result PLY on the same particles (mechanics_tbar_fem ref_out=...).
-      const core::ResultField r = core::readResult(path);
-      ok = r.size() == cloud.size();
-      ref = r.displacements;
-    } else {
-      std::ifstream in(path, std::ios::binary);
-      ref.resize(cloud.size());
-      in.read(reinterpret_cast<char*>(ref.data()), static_cast<std::streamsize>(ref.size() * sizeof(Vector3d)));
-      ok = static_cast<bool>(in);
-    }
-    if (!ok) {
-      std::fprintf(stderr, "no T-bar FEM reference at %s: run mechanics_dem case=tbar (it writes one) or pass reference=\n",
-                   path.c_str());
-      return 1;
-    }
-  }
+  std::vector<Vector3d> reference;  ///< empty when the T-bar's FEM reference could not be read
+};
 
+/// The uniaxial cube against its closed form, or the T-bar twist against a FEM reference: a
+/// result PLY on the same particles (mechanics_tbar_fem ref_out=...) or mechanics_dem's cache.
+Problem loadProblem(const Arguments& a, const std::string& which) {
+  Problem p;
+  if (which == "uniaxial") {
+    p.cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(6, 6, 6));
+    p.scenario = dm::uniaxialTractionScenario(2e5);
+    double b = 0;
+    const double s = dm::uniaxialStretchForStress(*dm::makeMaterial(p.scenario.material), 2e5, &b);
+    for (const auto& X : p.cloud.positions) p.reference.emplace_back((s - 1) * X.x(), (b - 1) * X.y(), (b - 1) * X.z());
+    return p;
+  }
+  p.scenario = core::loadScenario(std::string(DEMNERF_ROOT) + "/config/scenarios/tbar_twist.yaml");
+  p.cloud = tbarParticles(0.0075);
+  const std::string path = a.count("reference") ? a.at("reference") : "/tmp/dem_tbar_fem_0.007500_0.010000.bin";
+  bool ok = false;
+  if (path.size() > 4 && path.substr(path.size() - 4) == ".ply") {
+    const core::ResultField r = core::readResult(path);
+    ok = r.size() == p.cloud.size();
+    p.reference = r.displacements;
+  } else {
+    std::ifstream in(path, std::ios::binary);
+    p.reference.resize(p.cloud.size());
+    in.read(reinterpret_cast<char*>(p.reference.data()),
+            static_cast<std::streamsize>(p.reference.size() * sizeof(Vector3d)));
+    ok = static_cast<bool>(in);
+  }
+  if (!ok) {
+    std::fprintf(stderr, "no T-bar FEM reference at %s: run mechanics_dem case=tbar (it writes one) or pass reference=\n",
+                 path.c_str());
+    p.reference.clear();
+  }
+  return p;
+}
+
+/// The optimiser set-ups compared, all on the MLP alone.
+std::vector<Variant> makeVariants(const Arguments& a, const std::string& which, int iters) {
   dm::DemConfig base;
-  base.network.width = static_cast<int>(num("width", which == "tbar" ? 32 : 16));
-  base.network.depth = static_cast<int>(num("depth", which == "tbar" ? 3 : 2));
+  base.network.width = static_cast<int>(number(a, "width", which == "tbar" ? 32 : 16));
+  base.network.depth = static_cast<int>(number(a, "depth", which == "tbar" ? 3 : 2));
   base.adam.iterations = iters;
   base.grid.spacings = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
   base.grid.body_cells = 0.0;
-  scenario.load_steps = 1;
   std::vector<Variant> variants;
   variants.push_back({"Adam", base, cv::Scalar(200, 60, 0), {}});
   dm::DemConfig polish = base;
@@ -158,35 +155,56 @@ int main(int argc, char** argv) {
   newton_adam.output_newton.every = 50;
   newton_adam.adam.learning_rate = 1e-4;
   variants.push_back({"Newton + Adam 1e-4", newton_adam, cv::Scalar(160, 0, 160), {}});
+  return variants;
+}
+
+/// One training, its error recorded every `every` iterations (evaluation time excluded) into
+/// the variant's curve and the CSV; prints its table row.
+void runVariant(const Problem& p, const std::string& which, int every, Variant& v, std::ofstream& csv) {
+  dm::DemSolver dem(p.cloud, p.scenario, v.config);
+  double eval_seconds = 0.0;
+  const auto start = std::chrono::steady_clock::now();
+  auto record = [&](int iteration) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const double err = relativeL2(dem.predict(p.cloud.positions), p.reference);
+    const double elapsed = std::chrono::duration<double>(t0 - start).count() - eval_seconds;
+    eval_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    v.curve.push_back({elapsed, err});
+    csv << v.name << "," << iteration << "," << elapsed << "," << err << "\n";
+  };
+  dem.setProgressCallback(record, every);
+  try {
+    const dm::DemReport r = dem.solve();
+    record(r.iterations);
+    std::printf("| %s | %s | %zu | %dx%d | %d | %.2f | %.4f |\n", which.c_str(), v.name.c_str(), p.cloud.size(),
+                v.config.network.width, v.config.network.depth, r.iterations, v.curve.back().seconds,
+                v.curve.back().error);
+  } catch (const std::exception& e) {
+    std::printf("| %s | %s | %zu | %dx%d | - | - | failed: %s |\n", which.c_str(), v.name.c_str(), p.cloud.size(),
+                v.config.network.width, v.config.network.depth, e.what());
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);
+  const Arguments a = demnerf::bench::keyValueArguments(argc, argv);
+  const std::string which = a.count("case") ? a.at("case") : "uniaxial";
+  const std::string out = a.count("out") ? a.at("out") : "dem_convergence_" + which;
+  const int iters = static_cast<int>(number(a, "iters", which == "tbar" ? 600 : 1000));
+  const int every = static_cast<int>(number(a, "every", 25));
+  Problem problem = loadProblem(a, which);
+  if (problem.reference.empty()) return 1;
+  problem.scenario.load_steps = 1;
+  std::vector<Variant> variants = makeVariants(a, which, iters);
 
   std::ofstream csv(out + ".csv");
   csv << "variant,iteration,seconds,rel_l2\n";
   std::printf("| case | variant | particles | net | iterations | time (s) | rel L2 |\n| --- | --- | --- | --- | --- | --- | --- |\n");
-  for (Variant& v : variants) {
-    dm::DemSolver dem(cloud, scenario, v.config);
-    double eval_seconds = 0.0;
-    const auto start = std::chrono::steady_clock::now();
-    auto record = [&](int iteration) {
-      const auto t0 = std::chrono::steady_clock::now();
-      const double err = relativeL2(dem.predict(cloud.positions), ref);
-      const double elapsed = std::chrono::duration<double>(t0 - start).count() - eval_seconds;
-      eval_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      v.curve.push_back({elapsed, err});
-      csv << v.name << "," << iteration << "," << elapsed << "," << err << "\n";
-    };
-    dem.setProgressCallback(record, every);
-    try {
-      const dm::DemReport r = dem.solve();
-      record(r.iterations);
-      std::printf("| %s | %s | %zu | %dx%d | %d | %.2f | %.4f |\n", which.c_str(), v.name.c_str(), cloud.size(),
-                  v.config.network.width, v.config.network.depth, r.iterations, v.curve.back().seconds, v.curve.back().error);
-    } catch (const std::exception& e) {
-      std::printf("| %s | %s | %zu | %dx%d | - | - | failed: %s |\n", which.c_str(), v.name.c_str(), cloud.size(),
-                  v.config.network.width, v.config.network.depth, e.what());
-    }
-  }
+  for (Variant& v : variants) runVariant(problem, which, every, v, csv);
   plot(variants, out + ".png", "DEM rel. L2 error vs training seconds, " + which + " (" +
-                                   std::to_string(cloud.size()) + " particles)");
+                                   std::to_string(problem.cloud.size()) + " particles)");
   std::printf("wrote %s.csv and %s.png\n", out.c_str(), out.c_str());
   return 0;
 }

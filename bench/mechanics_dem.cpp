@@ -34,24 +34,31 @@ namespace dm = demnerf::mechanics;
 namespace core = demnerf::core;
 using Eigen::Vector3d;
 
-using demnerf::bench::inTbar;
 using demnerf::bench::median;
 using demnerf::bench::since;
 using demnerf::bench::tbarParticles;
 
 namespace {
 
+using Arguments = std::map<std::string, std::string>;
+
 core::Scenario uniaxial(double p11) { return dm::uniaxialTractionScenario(p11); }
 
-}  // namespace
+double number(const Arguments& a, const char* key, double fallback) {
+  const auto it = a.find(key);
+  return it != a.end() ? std::atof(it->second.c_str()) : fallback;
+}
 
-int main(int argc, char** argv) {
-  std::setvbuf(stdout, nullptr, _IOLBF, 0);
-  std::map<std::string, std::string> a = demnerf::bench::keyValueArguments(argc, argv);
-  auto num = [&](const char* k, double d) { return a.count(k) ? std::atof(a[k].c_str()) : d; };
-  const std::string which = a.count("case") ? a["case"] : "tbar";
+std::string text(const Arguments& a, const char* key, const std::string& fallback) {
+  const auto it = a.find(key);
+  return it != a.end() ? it->second : fallback;
+}
+
+/// The DEM of the arguments: the MLP alone unless grid= or grid_spacings= asks for the feature
+/// grid (DemConfig's default).
+dm::DemConfig demConfig(const Arguments& a) {
+  auto num = [&](const char* k, double d) { return number(a, k, d); };
   dm::DemConfig config;
-  // The MLP alone unless grid= or grid_spacings= asks for the feature grid (DemConfig's default).
   config.adam.iterations = static_cast<int>(num("iters", 1500));
   config.grid.spacings = num("grid_spacings", 0.0);
   config.grid.body_cells = num("grid_body_cells", 0.0);
@@ -76,70 +83,122 @@ int main(int argc, char** argv) {
   config.grid.degree = static_cast<int>(num("grid_degree", config.grid.degree));
   config.grid.refine_band = num("grid_band", config.grid.refine_band);
   // quadrature=particles extension=0: the earlier default grid (the README's lattice T-bar rows).
-  if (a.count("quadrature") && a["quadrature"] == "particles")
-    config.grid.quadrature = dm::DemConfig::GridQuadrature::kParticles;
+  if (text(a, "quadrature", "") == "particles") config.grid.quadrature = dm::DemConfig::GridQuadrature::kParticles;
   config.grid.extension_fill = num("extension", config.grid.extension_fill);
   config.load_steps = static_cast<int>(num("dem_steps", config.load_steps));
-  if (a.count("activation")) config.network.activation = a["activation"];
-  if (a.count("boundary") && a["boundary"] == "penalty") config.boundary.kind = dm::DemConfig::Boundary::kPenalty;
-  const int seeds = static_cast<int>(num("seeds", 3));
+  if (a.count("activation")) config.network.activation = a.at("activation");
+  if (text(a, "boundary", "") == "penalty") config.boundary.kind = dm::DemConfig::Boundary::kPenalty;
+  return config;
+}
 
+/// A body, its load case and the displacement the DEM is measured against, at its particles.
+struct Problem {
   core::Scenario scenario;
   core::ParticleCloud cloud;
-  std::vector<Vector3d> ref;
-  if (which == "uniaxial") {
-    const int n = static_cast<int>(num("cells", 6));
-    cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(n, n, n));
-    scenario = uniaxial(2e5);
-    double b = 0;
-    const double s = dm::uniaxialStretchForStress(*dm::makeMaterial(scenario.material), 2e5, &b);
-    for (const auto& X : cloud.positions) ref.emplace_back((s - 1) * X.x(), (b - 1) * X.y(), (b - 1) * X.z());
-  } else {
-    scenario = core::loadScenario(a.count("scenario") ? a["scenario"]
-                                                      : std::string(DEMNERF_ROOT) + "/config/scenarios/tbar_twist.yaml");
-    const double h = num("h", 0.0075), fem_h = num("fem_h", 0.01);
-    cloud = tbarParticles(h);
-    // Default reference: the converged FEM (bench/mechanics_tbar_fem, finest level) at these grid
-    // particles. fem_h=... or fem_cache=... ask for an FEM solve at that mesh size instead.
-    const std::string reference = a.count("reference") ? a["reference"]
-                                                       : std::string(DEMNERF_ROOT) + "/bench/data/tbar_twist_fem_reference.ply";
-    if (!a.count("fem_h") && !a.count("fem_cache") && std::ifstream(reference).good()) {
-      const core::ResultField field = core::readResult(reference);
-      bool same = field.size() == cloud.size();
-      for (std::size_t i = 0; same && i < cloud.size(); ++i) same = (field.positions[i] - cloud.positions[i]).norm() < 1e-6;
-      if (same) {
-        ref = field.displacements;
-        std::fprintf(stderr, "FEM reference: %s\n", reference.c_str());
-      } else {
-        std::fprintf(stderr, "%s holds other particles than h=%g: solving the FEM at fem_h=%g instead\n", reference.c_str(), h, fem_h);
-      }
-    }
-    const std::string cache = a.count("fem_cache") ? a["fem_cache"]
-                                                   : "/tmp/dem_tbar_fem_" + std::to_string(h) + "_" + std::to_string(fem_h) + ".bin";
-    std::ifstream in(ref.empty() ? cache : std::string(), std::ios::binary);
-    if (in) {
-      ref.resize(cloud.size());
-      in.read(reinterpret_cast<char*>(ref.data()), static_cast<std::streamsize>(ref.size() * sizeof(Vector3d)));
-      if (!in) ref.clear();
-    }
-    if (ref.empty()) {
-      core::TriangleMesh surface = dm::boxSurface(Vector3d(-0.03, -0.03, 0.0), Vector3d(0.03, 0.03, 0.24));
-      const core::TriangleMesh bar = dm::boxSurface(Vector3d(-0.15, -0.03, 0.24), Vector3d(0.15, 0.03, 0.30));
-      for (const auto& f : bar.faces) surface.faces.push_back({f[0] + 8, f[1] + 8, f[2] + 8});
-      surface.vertices.insert(surface.vertices.end(), bar.vertices.begin(), bar.vertices.end());
-      dm::VoxelMeshConfig voxel;
-      voxel.cell = fem_h;
-      voxel.order = 2;
-      const auto start = std::chrono::steady_clock::now();
-      dm::FemSolver fem(dm::voxelMeshFromSurface(surface, voxel), scenario);
-      fem.solve();
-      ref = fem.interpolate(cloud.positions).displacement;
-      std::fprintf(stderr, "FEM TET10 h=%g: %.1f s (cached in %s)\n", fem_h, since(start), cache.c_str());
-      std::ofstream out(cache, std::ios::binary);
-      out.write(reinterpret_cast<const char*>(ref.data()), static_cast<std::streamsize>(ref.size() * sizeof(Vector3d)));
-    }
+  std::vector<Vector3d> reference;
+};
+
+/// The cube in uniaxial traction, against the closed form.
+Problem uniaxialProblem(int cells) {
+  Problem p;
+  p.cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(cells, cells, cells));
+  p.scenario = uniaxial(2e5);
+  double b = 0;
+  const double s = dm::uniaxialStretchForStress(*dm::makeMaterial(p.scenario.material), 2e5, &b);
+  for (const auto& X : p.cloud.positions) p.reference.emplace_back((s - 1) * X.x(), (b - 1) * X.y(), (b - 1) * X.z());
+  return p;
+}
+
+/// The stored converged FEM (bench/mechanics_tbar_fem, finest level) when it holds exactly these
+/// particles; empty otherwise.
+std::vector<Vector3d> storedReference(const std::string& path, const core::ParticleCloud& cloud, double h,
+                                      double fem_h) {
+  if (!std::ifstream(path).good()) return {};
+  const core::ResultField field = core::readResult(path);
+  bool same = field.size() == cloud.size();
+  for (std::size_t i = 0; same && i < cloud.size(); ++i) same = (field.positions[i] - cloud.positions[i]).norm() < 1e-6;
+  if (!same) {
+    std::fprintf(stderr, "%s holds other particles than h=%g: solving the FEM at fem_h=%g instead\n", path.c_str(), h,
+                 fem_h);
+    return {};
   }
-  if (a.count("steps")) scenario.load_steps = static_cast<int>(num("steps", 1));
+  std::fprintf(stderr, "FEM reference: %s\n", path.c_str());
+  return field.displacements;
+}
+
+/// A TET10 FEM solve of the T-bar at mesh size fem_h, interpolated at the particles and cached.
+std::vector<Vector3d> solveFemReference(const core::Scenario& scenario, const core::ParticleCloud& cloud, double fem_h,
+                                        const std::string& cache) {
+  const core::TriangleMesh surface = demnerf::bench::tbarSurface();
+  dm::VoxelMeshConfig voxel;
+  voxel.cell = fem_h;
+  voxel.order = 2;
+  const auto start = std::chrono::steady_clock::now();
+  dm::FemSolver fem(dm::voxelMeshFromSurface(surface, voxel), scenario);
+  fem.solve();
+  std::vector<Vector3d> ref = fem.interpolate(cloud.positions).displacement;
+  std::fprintf(stderr, "FEM TET10 h=%g: %.1f s (cached in %s)\n", fem_h, since(start), cache.c_str());
+  std::ofstream out(cache, std::ios::binary);
+  out.write(reinterpret_cast<const char*>(ref.data()), static_cast<std::streamsize>(ref.size() * sizeof(Vector3d)));
+  return ref;
+}
+
+/// The T-bar twist against the converged FEM at these grid particles by default; fem_h=... or
+/// fem_cache=... ask for an FEM solve at that mesh size instead (cached between runs).
+Problem tbarProblem(const Arguments& a) {
+  Problem p;
+  p.scenario = core::loadScenario(text(a, "scenario", std::string(DEMNERF_ROOT) + "/config/scenarios/tbar_twist.yaml"));
+  const double h = number(a, "h", 0.0075), fem_h = number(a, "fem_h", 0.01);
+  p.cloud = tbarParticles(h);
+  const std::string reference =
+      text(a, "reference", std::string(DEMNERF_ROOT) + "/bench/data/tbar_twist_fem_reference.ply");
+  if (!a.count("fem_h") && !a.count("fem_cache")) p.reference = storedReference(reference, p.cloud, h, fem_h);
+  const std::string cache =
+      text(a, "fem_cache", "/tmp/dem_tbar_fem_" + std::to_string(h) + "_" + std::to_string(fem_h) + ".bin");
+  std::ifstream in(p.reference.empty() ? cache : std::string(), std::ios::binary);
+  if (in) {
+    p.reference.resize(p.cloud.size());
+    in.read(reinterpret_cast<char*>(p.reference.data()),
+            static_cast<std::streamsize>(p.reference.size() * sizeof(Vector3d)));
+    if (!in) p.reference.clear();
+  }
+  if (p.reference.empty()) p.reference = solveFemReference(p.scenario, p.cloud, fem_h, cache);
+  return p;
+}
+
+/// 10k random points inside the body, for the prediction timing.
+std::vector<Vector3d> pointsInside(const std::string& which, int seed) {
+  if (which != "uniaxial") return demnerf::bench::pointsInTbar(10000, seed);
+  std::mt19937 rng(seed);
+  std::vector<Vector3d> points;
+  std::uniform_real_distribution<double> u01(0, 1);
+  while (points.size() < 10000) points.emplace_back(u01(rng), u01(rng), u01(rng));
+  return points;
+}
+
+/// Median of 3 prediction times, in ms.
+double predictMilliseconds(const dm::DemSolver& dem, const std::vector<Vector3d>& points) {
+  std::vector<double> ms;
+  for (int rep = 0; rep < 3; ++rep) {
+    const auto start = std::chrono::steady_clock::now();
+    const auto v = dem.predict(points);
+    ms.push_back(1e3 * since(start));
+  }
+  return median(ms);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);
+  const Arguments a = demnerf::bench::keyValueArguments(argc, argv);
+  const std::string which = text(a, "case", "tbar");
+  dm::DemConfig config = demConfig(a);
+  const int seeds = static_cast<int>(number(a, "seeds", 3));
+  Problem problem = which == "uniaxial" ? uniaxialProblem(static_cast<int>(number(a, "cells", 6))) : tbarProblem(a);
+  const core::ParticleCloud& cloud = problem.cloud;
+  const std::vector<Vector3d>& ref = problem.reference;
+  if (a.count("steps")) problem.scenario.load_steps = static_cast<int>(number(a, "steps", 1));
   double ref_norm = 0, ref_max = 0;
   for (const auto& r : ref) {
     ref_norm += r.squaredNorm();
@@ -150,7 +209,7 @@ int main(int argc, char** argv) {
   std::printf("| case | particles | net | Adam its x steps | L-BFGS | seed | time (s) | rel L2 | max err / max |u| | energy (J) | out scale |\n");
   for (int seed = 1; seed <= seeds; ++seed) {
     config.network.seed = seed;
-    dm::DemSolver dem(cloud, scenario, config);
+    dm::DemSolver dem(cloud, problem.scenario, config);
     const dm::DemReport r = dem.solve();
     const auto u = dem.predict(cloud.positions);
     double e = 0, emax = 0;
@@ -164,26 +223,7 @@ int main(int argc, char** argv) {
                 cloud.size(), config.network.width, config.network.depth, config.network.double_precision ? "f64" : "f32", config.adam.iterations,
                 r.load_steps, config.lbfgs.iterations, r.polish_rejected ? " (rejected)" : "", seed, r.seconds,
                 errors.back(), emax / ref_max, r.energy, r.output_scale);
-    // Prediction time for 10k random points inside the body (median of 3).
-    std::mt19937 rng(seed);
-    std::vector<Vector3d> points;
-    if (which == "uniaxial") {
-      std::uniform_real_distribution<double> u01(0, 1);
-      while (points.size() < 10000) points.emplace_back(u01(rng), u01(rng), u01(rng));
-    } else {
-      std::uniform_real_distribution<double> ux(-0.15, 0.15), uy(-0.03, 0.03), uz(0.0, 0.30);
-      while (points.size() < 10000) {
-        const Vector3d p(ux(rng), uy(rng), uz(rng));
-        if (inTbar(p)) points.push_back(p);
-      }
-    }
-    std::vector<double> ms;
-    for (int rep = 0; rep < 3; ++rep) {
-      const auto start = std::chrono::steady_clock::now();
-      const auto v = dem.predict(points);
-      ms.push_back(1e3 * since(start));
-    }
-    predict_ms.push_back(median(ms));
+    predict_ms.push_back(predictMilliseconds(dem, pointsInside(which, seed)));
   }
   std::printf("median: time %.2f s, rel L2 %.4f (min %.4f, max %.4f), predict 10k %.1f ms\n", median(seconds),
               median(errors), *std::min_element(errors.begin(), errors.end()),

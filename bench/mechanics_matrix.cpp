@@ -32,13 +32,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <iomanip>
 #include <map>
 #include <sstream>
 #include <string>
 #include <vector>
-
-#include <Eigen/Geometry>
 
 #include "demnerf/core/error.hpp"
 #include "demnerf/core/ply.hpp"
@@ -50,6 +47,7 @@
 #include "mechanics_bench_common.hpp"
 #include "mechanics_matrix_cases.hpp"
 #include "mechanics_matrix_nerf.hpp"
+#include "mechanics_matrix_reference.hpp"
 #include "mechanics_matrix_report.hpp"
 
 namespace dm = demnerf::mechanics;
@@ -160,63 +158,6 @@ dm::SolverChoice solverChoice(const std::string& solver) {
   return solver == "fem" ? dm::SolverChoice::kFem : dm::SolverChoice::kDem;
 }
 
-// One reference FEM solve at mesh size `cell` on the union cloud, cached as a result PLY (+ a line
-// of figures) in the out dir; a cache on other particles is solved again.
-struct Reference {
-  core::ResultField field;
-  double energy = 0.0, seconds = 0.0, cell = 0.0;
-  int dofs = 0;
-  std::string error;
-};
-
-Reference referenceFem(const core::ParticleCloud& cloud, const core::Scenario& scenario,
-                       const core::TriangleMesh& surface, double cell, const Settings& s, const std::string& stem) {
-  Reference r;
-  r.cell = cell;
-  const std::string ply = stem + ".ply", figures = stem + ".txt";
-  if (std::filesystem::exists(ply) && std::filesystem::exists(figures)) {
-    core::ResultField field = core::readResult(ply);
-    // Result PLYs hold floats: the same particles agree to float precision of the body's size.
-    Eigen::AlignedBox3d box;
-    for (const Vector3d& x : cloud.positions) box.extend(x);
-    const double tolerance = 1e-6 * box.diagonal().norm();
-    bool same = field.size() == cloud.size();
-    for (std::size_t i = 0; same && i < cloud.size(); ++i) same = (field.positions[i] - cloud.positions[i]).norm() < tolerance;
-    std::ifstream in(figures);
-    if (same && (in >> r.energy >> r.dofs >> r.seconds)) {
-      r.field = std::move(field);
-      std::fprintf(stderr, "  reference h=%g: cached %s\n", cell, ply.c_str());
-      return r;
-    }
-  }
-  dm::SimulateOptions o;
-  o.surface = surface;
-  o.voxel.cell = cell;
-  o.voxel.order = 2;
-  o.control.time_limit = s.ref_time_limit;
-  o.control.progress_interval = 10.0;
-  o.control.progress = [](const dm::SolveProgress& p) {
-    std::fprintf(stderr, "    reference %s: load %.3f it %d residual %.2e, %.0f s\n", p.phase.c_str(), p.load_fraction,
-                 p.iteration, p.residual, p.elapsed);
-  };
-  const auto start = std::chrono::steady_clock::now();
-  try {
-    const dm::SimulationOutcome out = dm::simulate(cloud, scenario, dm::SolverChoice::kFem, o);
-    r.field = out.field;
-    r.energy = out.energy;
-    r.dofs = 3 * out.mesh_nodes;
-    r.seconds = bench::since(start);
-    core::writeResult(ply, r.field);
-    std::ofstream(figures) << std::setprecision(17) << r.energy << " " << r.dofs << " " << r.seconds << "\n";
-    std::fprintf(stderr, "  reference h=%g: %d dofs, %.1f s, energy %.6g\n", cell, r.dofs, r.seconds, r.energy);
-  } catch (const std::exception& e) {
-    r.error = e.what();
-    r.seconds = bench::since(start);
-    std::fprintf(stderr, "  reference h=%g FAILED after %.1f s: %s\n", cell, r.seconds, e.what());
-  }
-  return r;
-}
-
 void append(core::ParticleCloud& all, const core::ParticleCloud& part) {
   all.positions.insert(all.positions.end(), part.positions.begin(), part.positions.end());
   all.volumes.insert(all.volumes.end(), part.volumes.begin(), part.volumes.end());
@@ -292,14 +233,19 @@ void writeOutputs(const bench::MatrixReport& report, const Settings& s) {
   }
 }
 
-// Every row (and its solver cells) of one scenario from one surface.
-void runSource(const bench::MatrixCase& mc, const core::Scenario& scenario, const std::string& source,
-               const core::TriangleMesh& surface, const Settings& s, bench::MatrixReport& report) {
-  // The clouds, and their union (plus the sanity probes) on which the reference is solved once.
+// The clouds of one scenario x source (a row per sampler x spacing), and their union plus the
+// scenario's sanity probes, on which the reference is solved once.
+struct SourceClouds {
   std::vector<bench::MatrixRow> rows;
   std::vector<core::ParticleCloud> clouds;
-  std::vector<std::size_t> offsets;
+  std::vector<std::size_t> offsets;  ///< of each cloud in `all`
   core::ParticleCloud all;
+  std::size_t probes_at = 0;
+};
+
+SourceClouds sampleClouds(const bench::MatrixCase& mc, const std::string& source, const core::TriangleMesh& surface,
+                          const Settings& s) {
+  SourceClouds out;
   for (const std::string& sampler : s.samplers)
     for (int divisor : s.divisors) {
       bench::MatrixRow row{mc.name, source, sampler, divisor, mc.smallest / divisor};
@@ -316,12 +262,12 @@ void runSource(const bench::MatrixCase& mc, const core::Scenario& scenario, cons
         std::printf("%s %s %s 1/%d: sampler failed: %s\n", mc.name.c_str(), source.c_str(), sampler.c_str(), divisor,
                     e.what());
       }
-      offsets.push_back(all.size());
-      append(all, cloud);
-      clouds.push_back(std::move(cloud));
-      rows.push_back(row);
+      out.offsets.push_back(out.all.size());
+      append(out.all, cloud);
+      out.clouds.push_back(std::move(cloud));
+      out.rows.push_back(row);
     }
-  const std::size_t probes_at = all.size();
+  out.probes_at = out.all.size();
   for (const bench::Probe& p : mc.probes) {
     core::ParticleCloud probe;
     probe.resize(1);
@@ -330,14 +276,22 @@ void runSource(const bench::MatrixCase& mc, const core::Scenario& scenario, cons
     probe.areas[0] = 0.0;
     probe.normals[0] = Vector3d::Zero();
     probe.colors[0] = {0, 0, 0};
-    append(all, probe);
+    append(out.all, probe);
   }
-  // The reference FEM at two mesh sizes.
+  return out;
+}
+
+// The reference FEM at two mesh sizes, its convergence and sanity row (printed); returns the fine one.
+bench::Reference referencePair(const bench::MatrixCase& mc, const core::Scenario& scenario, const std::string& source,
+                               const core::TriangleMesh& surface, const Settings& s, const SourceClouds& sc,
+                               bench::MatrixReport& report) {
   bench::ConvergenceRow conv{mc.name, source};
   const std::string stem = s.out + "/reference_" + mc.name + "_" + source;
-  std::fprintf(stderr, "%s / %s: reference FEM TET10 on %zu points\n", mc.name.c_str(), source.c_str(), all.size());
-  const Reference fine = referenceFem(all, scenario, surface, mc.smallest / s.ref_div, s, stem + "_fine");
-  const Reference coarse = referenceFem(all, scenario, surface, mc.smallest / s.conv_div, s, stem + "_coarse");
+  std::fprintf(stderr, "%s / %s: reference FEM TET10 on %zu points\n", mc.name.c_str(), source.c_str(), sc.all.size());
+  bench::Reference fine =
+      bench::referenceFem(sc.all, scenario, surface, mc.smallest / s.ref_div, s.ref_time_limit, stem + "_fine");
+  const bench::Reference coarse =
+      bench::referenceFem(sc.all, scenario, surface, mc.smallest / s.conv_div, s.ref_time_limit, stem + "_coarse");
   conv.fine_cell = fine.cell, conv.coarse_cell = coarse.cell;
   conv.fine_dofs = fine.dofs, conv.coarse_dofs = coarse.dofs;
   conv.fine_seconds = fine.seconds, conv.coarse_seconds = coarse.seconds;
@@ -345,7 +299,7 @@ void runSource(const bench::MatrixCase& mc, const core::Scenario& scenario, cons
   conv.error = !fine.error.empty() ? "fine: " + fine.error : (!coarse.error.empty() ? "coarse: " + coarse.error : "");
   if (fine.error.empty()) {
     std::vector<Vector3d> at;
-    for (std::size_t i = probes_at; i < all.size(); ++i) at.push_back(fine.field.displacements[i]);
+    for (std::size_t i = sc.probes_at; i < sc.all.size(); ++i) at.push_back(fine.field.displacements[i]);
     const bench::Sanity sanity = mc.check(at);
     conv.sanity = sanity.text, conv.sanity_ok = sanity.ok;
     if (coarse.error.empty()) conv.rel_l2 = dm::compareResults(coarse.field, fine.field).rel_l2;
@@ -361,18 +315,25 @@ void runSource(const bench::MatrixCase& mc, const core::Scenario& scenario, cons
                 conv.sanity.c_str());
   }
   report.convergence.push_back(conv);
-  // The cells.
-  for (std::size_t r = 0; r < rows.size(); ++r) {
-    bench::MatrixRow& row = rows[r];
+  return fine;
+}
+
+// Every row (and its solver cells) of one scenario from one surface.
+void runSource(const bench::MatrixCase& mc, const core::Scenario& scenario, const std::string& source,
+               const core::TriangleMesh& surface, const Settings& s, bench::MatrixReport& report) {
+  SourceClouds sc = sampleClouds(mc, source, surface, s);
+  const bench::Reference fine = referencePair(mc, scenario, source, surface, s, sc, report);
+  for (std::size_t r = 0; r < sc.rows.size(); ++r) {
+    bench::MatrixRow& row = sc.rows[r];
     if (row.cloud_error.empty()) {
       core::ResultField reference;
       if (fine.error.empty()) {
-        reference = slice(fine.field, offsets[r], clouds[r].size());
+        reference = slice(fine.field, sc.offsets[r], sc.clouds[r].size());
         row.reference_energy = fine.energy;
         for (const Vector3d& u : reference.displacements) row.reference_max_u = std::max(row.reference_max_u, u.norm());
       }
       for (const std::string& solver : s.solvers) {
-        row.cells.push_back(runCell(solver, clouds[r], scenario, surface, mc.smallest, s,
+        row.cells.push_back(runCell(solver, sc.clouds[r], scenario, surface, mc.smallest, s,
                                     fine.error.empty() ? &reference : nullptr, fine.energy));
         printCell(row, row.cells.back());
       }

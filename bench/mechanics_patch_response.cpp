@@ -19,17 +19,9 @@
 namespace dm = demnerf::mechanics;
 namespace core = demnerf::core;
 using Eigen::Vector3d;
+using demnerf::bench::relativeL2;
 
 namespace {
-
-double relativeL2(const std::vector<Vector3d>& u, const std::vector<Vector3d>& reference) {
-  double e = 0.0, r = 0.0;
-  for (std::size_t i = 0; i < u.size(); ++i) {
-    e += (u[i] - reference[i]).squaredNorm();
-    r += reference[i].squaredNorm();
-  }
-  return std::sqrt(e / r);
-}
 
 double maxNorm(const std::vector<Vector3d>& u) {
   double m = 0.0;

@@ -22,35 +22,25 @@ namespace dm = demnerf::mechanics;
 namespace core = demnerf::core;
 using Eigen::Vector3d;
 
-using demnerf::bench::inTbar;
 using demnerf::bench::median;
+using demnerf::bench::relativeL2;
 using demnerf::bench::since;
 using demnerf::bench::tbarParticles;
 
-int main(int argc, char** argv) {
-  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // keep the table when a later stage aborts
-  const std::string scenario_path = argc > 1 ? argv[1] : std::string(DEMNERF_ROOT) + "/config/scenarios/tbar_twist.yaml";
-  const double h = argc > 2 ? std::atof(argv[2]) : 0.0075;
-  const int levels = argc > 3 ? std::atoi(argv[3]) : 3;
-  const int dem_iterations = argc > 4 ? std::atoi(argv[4]) : 400;
-  const core::Scenario scenario = core::loadScenario(scenario_path);
-  const core::ParticleCloud cloud = tbarParticles(h);
-  std::printf("T-bar: %zu particles (cell %.4f m), scenario %s\n\n", cloud.size(), h, scenario_path.c_str());
+namespace {
 
-  struct Row {
-    std::string solver;
-    double seconds;
-    std::vector<Vector3d> u;
-    std::size_t size;
-  };
-  std::vector<Row> rows;
-  // FEM: TET10 on voxel meshes, coarse to fine; the finest is the reference.
-  // The T-bar's surface: two closed boxes that touch at z = 0.24 (ray parity gives their union).
-  core::TriangleMesh surface = dm::boxSurface(Vector3d(-0.03, -0.03, 0.0), Vector3d(0.03, 0.03, 0.24));
-  const core::TriangleMesh bar = dm::boxSurface(Vector3d(-0.15, -0.03, 0.24), Vector3d(0.15, 0.03, 0.30));
-  for (const auto& f : bar.faces) surface.faces.push_back({f[0] + 8, f[1] + 8, f[2] + 8});
-  surface.vertices.insert(surface.vertices.end(), bar.vertices.begin(), bar.vertices.end());
+struct Row {
+  std::string solver;
+  double seconds;
+  std::vector<Vector3d> u;
+  std::size_t size;
+};
+
+/// FEM: TET10 on voxel meshes of the T-bar's surface, coarse to fine (the finest is the reference).
+std::vector<Row> femLevels(const core::Scenario& scenario, const core::ParticleCloud& cloud, int levels) {
+  const core::TriangleMesh surface = demnerf::bench::tbarSurface();
   const double cells[] = {0.02, 0.015, 0.01, 0.0075};
+  std::vector<Row> rows;
   for (int l = 0; l < levels && l < 4; ++l) {
     dm::VoxelMeshConfig voxel;
     voxel.cell = cells[l];
@@ -66,50 +56,64 @@ int main(int argc, char** argv) {
     rows.push_back(row);
     std::fprintf(stderr, "fem level %d done in %.1f s\n", l, row.seconds);
   }
-  const Row& ref = rows.back();
-  auto relL2 = [&](const std::vector<Vector3d>& u) {
-    double e = 0, r = 0;
-    for (std::size_t i = 0; i < u.size(); ++i) {
-      e += (u[i] - ref.u[i]).squaredNorm();
-      r += ref.u[i].squaredNorm();
-    }
-    return std::sqrt(e / r);
-  };
+  return rows;
+}
 
-  // DEM: three trainings from different seeds (median time), then predict 10k random points.
-  std::vector<double> dem_seconds, dem_errors, predict_ms;
+struct DemRuns {
+  std::vector<double> seconds, errors, predict_ms;
+};
+
+/// DEM: three trainings from different seeds (the MLP alone), each then predicting 10k random
+/// points three times.
+DemRuns demRuns(const core::Scenario& scenario, const core::ParticleCloud& cloud, int iterations,
+                const std::vector<Vector3d>& reference) {
+  DemRuns runs;
   for (int seed = 1; seed <= 3; ++seed) {
     dm::DemConfig config;
-    config.adam.iterations = dem_iterations;
+    config.adam.iterations = iterations;
     config.grid.spacings = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
     config.grid.body_cells = 0.0;
     config.network.seed = seed;
     dm::DemSolver dem(cloud, scenario, config);
     const dm::DemReport r = dem.solve();
-    dem_seconds.push_back(r.seconds);
-    dem_errors.push_back(relL2(dem.predict(cloud.positions)));
-    std::mt19937 rng(seed);
-    std::uniform_real_distribution<double> ux(-0.15, 0.15), uy(-0.03, 0.03), uz(0.0, 0.30);
-    std::vector<Vector3d> points;
-    while (points.size() < 10000) {
-      const Vector3d p(ux(rng), uy(rng), uz(rng));
-      if (inTbar(p)) points.push_back(p);
-    }
+    runs.seconds.push_back(r.seconds);
+    runs.errors.push_back(relativeL2(dem.predict(cloud.positions), reference));
+    const std::vector<Vector3d> points = demnerf::bench::pointsInTbar(10000, seed);
     for (int rep = 0; rep < 3; ++rep) {
       const auto start = std::chrono::steady_clock::now();
       const auto u = dem.predict(points);
-      predict_ms.push_back(1e3 * since(start));
+      runs.predict_ms.push_back(1e3 * since(start));
     }
-    std::fprintf(stderr, "dem seed %d: %.2f s, rel L2 %.4f, energy %.5g\n", seed, r.seconds, dem_errors.back(), r.energy);
+    std::fprintf(stderr, "dem seed %d: %.2f s, rel L2 %.4f, energy %.5g\n", seed, r.seconds, runs.errors.back(),
+                 r.energy);
   }
+  return runs;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // keep the table when a later stage aborts
+  const std::string scenario_path = argc > 1 ? argv[1] : std::string(DEMNERF_ROOT) + "/config/scenarios/tbar_twist.yaml";
+  const double h = argc > 2 ? std::atof(argv[2]) : 0.0075;
+  const int levels = argc > 3 ? std::atoi(argv[3]) : 3;
+  const int dem_iterations = argc > 4 ? std::atoi(argv[4]) : 400;
+  const core::Scenario scenario = core::loadScenario(scenario_path);
+  const core::ParticleCloud cloud = tbarParticles(h);
+  std::printf("T-bar: %zu particles (cell %.4f m), scenario %s\n\n", cloud.size(), h, scenario_path.c_str());
+
+  const std::vector<Row> rows = femLevels(scenario, cloud, levels);
+  const Row& ref = rows.back();
+  const DemRuns dem = demRuns(scenario, cloud, dem_iterations, ref.u);
 
   std::printf("| solver | particles | time (s) | rel. L2 vs finest FEM | predict 10k (ms) |\n| --- | --- | --- | --- | --- |\n");
   for (const Row& row : rows)
-    std::printf("| %s | %zu | %.2f | %.4f | - |\n", row.solver.c_str(), cloud.size(), row.seconds, relL2(row.u));
+    std::printf("| %s | %zu | %.2f | %.4f | - |\n", row.solver.c_str(), cloud.size(), row.seconds,
+                relativeL2(row.u, ref.u));
   std::printf("| DEM exact BCs, %d Adam its/step (median of 3 seeds) | %zu | %.2f | %.4f (min %.4f, max %.4f) | %.1f |\n",
-              dem_iterations, cloud.size(), median(dem_seconds), median(dem_errors),
-              *std::min_element(dem_errors.begin(), dem_errors.end()),
-              *std::max_element(dem_errors.begin(), dem_errors.end()), median(predict_ms));
+              dem_iterations, cloud.size(), median(dem.seconds), median(dem.errors),
+              *std::min_element(dem.errors.begin(), dem.errors.end()),
+              *std::max_element(dem.errors.begin(), dem.errors.end()), median(dem.predict_ms));
   std::printf("| PINN | - | not built yet | - | - |\n");
   std::printf("\ntargets: DEM training <= 10 s, rel. L2 <= 0.05, predict 10k <= 50 ms\n");
   return 0;

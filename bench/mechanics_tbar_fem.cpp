@@ -49,17 +49,6 @@ std::vector<double> parseList(const std::string& text) {
   return out;
 }
 
-// The closed surface of the T-bar (leg and bar as two touching boxes: the ray-parity voxeliser
-// only looks at cell centres, which never lie on the shared face for these cell sizes).
-core::TriangleMesh tbarSurface() {
-  core::TriangleMesh surface = dm::boxSurface(Vector3d(-0.03, -0.03, 0.0), Vector3d(0.03, 0.03, 0.24));
-  const core::TriangleMesh bar = dm::boxSurface(Vector3d(-0.15, -0.03, 0.24), Vector3d(0.15, 0.03, 0.30));
-  const int offset = static_cast<int>(surface.vertices.size());
-  for (const auto& f : bar.faces) surface.faces.push_back({f[0] + offset, f[1] + offset, f[2] + offset});
-  surface.vertices.insert(surface.vertices.end(), bar.vertices.begin(), bar.vertices.end());
-  return surface;
-}
-
 // The T-bar as ONE closed two-manifold surface (what CGAL's mesher needs; the two touching boxes
 // above are not one): the boundary faces of the 4 boxes of the grid x {-0.15, -0.03, 0.03, 0.15},
 // y {-0.03, 0.03}, z {0, 0.24, 0.30} that the body fills (the leg, three bar segments), each face
@@ -106,6 +95,61 @@ core::TriangleMesh tbarUnionSurface() {
   return m;
 }
 
+using Arguments = std::map<std::string, std::string>;
+
+std::string text(const Arguments& a, const char* key, const std::string& fallback) {
+  const auto it = a.find(key);
+  return it != a.end() ? it->second : fallback;
+}
+
+double number(const Arguments& a, const char* key, double fallback) {
+  const auto it = a.find(key);
+  return it != a.end() ? std::atof(it->second.c_str()) : fallback;
+}
+
+/// The twist scenario; patch_inner=X is a study variant with load patches from |x| = X to the bar
+/// ends. The scenario's |x| = 0.10 is a grid line only for h = 0.01, 0.005; 0.09 is one for 0.02,
+/// 0.015, 0.01, 0.0075, 0.005, so all levels then solve the same load.
+core::Scenario twistScenario(const Arguments& a) {
+  core::Scenario scenario =
+      core::loadScenario(text(a, "scenario", std::string(DEMNERF_ROOT) + "/config/scenarios/tbar_twist.yaml"));
+  if (a.count("patch_inner")) {
+    const double inner = number(a, "patch_inner", 0.10);
+    for (core::Load& load : scenario.loads) {
+      const double sign = load.region.center.x() > 0 ? 1.0 : -1.0;
+      load.region.center.x() = sign * 0.5 * (inner + 0.15);
+      load.region.size.x() = 0.15 - inner;
+    }
+  }
+  return scenario;
+}
+
+/// mode=speed: what `demnerf simulate --particles P --scenario tbar_twist.yaml --solver fem
+/// --order 1` does (mechanics::simulate's FEM branch, inlined so the timing is of exactly these
+/// steps: particle voxels, solve, interpolate to the particles).
+void runSpeed(const Arguments& a, const core::Scenario& scenario, dm::FemConfig fem_config) {
+  const core::ParticleCloud cloud =
+      a.count("particles") ? core::readParticles(a.at("particles")) : tbarParticles(number(a, "cell", 0.006));
+  if (text(a, "ordering", "") == "amd") fem_config.ordering = dm::FemConfig::Ordering::kAmd;
+  if (a.count("steps")) fem_config.load_steps = static_cast<int>(number(a, "steps", 0));
+  dm::VoxelMeshConfig voxel;
+  voxel.order = static_cast<int>(number(a, "order", 1));
+  std::vector<double> seconds;
+  for (int rep = 0; rep < static_cast<int>(number(a, "reps", 3)); ++rep) {
+    const auto start = std::chrono::steady_clock::now();
+    dm::FemSolver fem(dm::voxelMeshFromParticles(cloud, voxel), scenario, fem_config);
+    const dm::FemResult& r = fem.solve();
+    const dm::PointField at = fem.interpolate(cloud.positions);
+    seconds.push_back(since(start));
+    double max_u = 0;
+    for (const auto& u : at.displacement) max_u = std::max(max_u, u.norm());
+    std::printf("run %d: %zu particles, %zu nodes, %zu elements, %.2f s (Newton its %d, factorisations %d, CG its %d), energy %.6g J, max |u| %.3f mm\n",
+                rep + 1, cloud.size(), fem.mesh().nodes.size(), fem.mesh().elements.size(), seconds.back(),
+                r.newton_iterations, r.factorisations, r.cg_iterations, r.energy, 1e3 * max_u);
+  }
+  std::printf("median %.2f s over %zu runs\n", median(seconds), seconds.size());
+}
+
 struct Level {
   int order;
   double h;
@@ -117,125 +161,48 @@ struct Level {
   Vector3d patch[2];
 };
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  std::setvbuf(stdout, nullptr, _IOLBF, 0);
-  std::map<std::string, std::string> a = demnerf::bench::keyValueArguments(argc, argv);
-  auto str = [&](const char* k, const std::string& d) { return a.count(k) ? a[k] : d; };
-  auto num = [&](const char* k, double d) { return a.count(k) ? std::atof(a[k].c_str()) : d; };
-  core::Scenario scenario =
-      core::loadScenario(str("scenario", std::string(DEMNERF_ROOT) + "/config/scenarios/tbar_twist.yaml"));
-  if (a.count("patch_inner")) {
-    // Study variant: load patches from |x| = patch_inner to the bar ends. The scenario's |x| = 0.10
-    // is a grid line only for h = 0.01, 0.005; 0.09 is one for 0.02, 0.015, 0.01, 0.0075, 0.005, so
-    // all levels then solve the same load.
-    const double inner = num("patch_inner", 0.10);
-    for (core::Load& load : scenario.loads) {
-      const double sign = load.region.center.x() > 0 ? 1.0 : -1.0;
-      load.region.center.x() = sign * 0.5 * (inner + 0.15);
-      load.region.size.x() = 0.15 - inner;
-    }
-  }
-  dm::FemConfig fem_config;
-  fem_config.threads = static_cast<int>(num("threads", 0));
-  fem_config.verbose = num("verbose", 0) != 0;
-  if (a.count("reuse")) fem_config.reuse_factorisation_iterations = static_cast<int>(num("reuse", 30));
-
-  if (str("mode", "converge") == "speed") {
-    // What `demnerf simulate --particles P --scenario tbar_twist.yaml --solver fem --order 1` does
-    // (mechanics::simulate's FEM branch, inlined so the timing is of exactly these steps).
-    const core::ParticleCloud cloud =
-        a.count("particles") ? core::readParticles(a["particles"]) : tbarParticles(num("cell", 0.006));
-    if (a.count("ordering") && a["ordering"] == "amd") fem_config.ordering = dm::FemConfig::Ordering::kAmd;
-    if (a.count("steps")) fem_config.load_steps = static_cast<int>(num("steps", 0));
-    dm::VoxelMeshConfig voxel;
-    voxel.order = static_cast<int>(num("order", 1));
-    std::vector<double> seconds;
-    for (int rep = 0; rep < static_cast<int>(num("reps", 3)); ++rep) {
-      // The FEM branch of mechanics::simulate (particle voxels, solve, interpolate to the particles).
-      const auto start = std::chrono::steady_clock::now();
-      dm::FemSolver fem(dm::voxelMeshFromParticles(cloud, voxel), scenario, fem_config);
-      const dm::FemResult& r = fem.solve();
-      const dm::PointField at = fem.interpolate(cloud.positions);
-      seconds.push_back(since(start));
-      double max_u = 0;
-      for (const auto& u : at.displacement) max_u = std::max(max_u, u.norm());
-      std::printf("run %d: %zu particles, %zu nodes, %zu elements, %.2f s (Newton its %d, factorisations %d, CG its %d), energy %.6g J, max |u| %.3f mm\n",
-                  rep + 1, cloud.size(), fem.mesh().nodes.size(), fem.mesh().elements.size(), seconds.back(),
-                  r.newton_iterations, r.factorisations, r.cg_iterations, r.energy, 1e3 * max_u);
-    }
-    std::printf("median %.2f s over %zu runs\n", median(seconds), seconds.size());
-    return 0;
-  }
-
-  const core::ParticleCloud cloud = tbarParticles(num("particle_h", 0.0075));
+/// One mesh level: mesh (voxels or CGAL) of element order and size h, solve, and the answer at
+/// the particles and at the two patch points.
+Level solveLevel(const core::TriangleMesh& surface, bool cgal, int order, double h, const core::Scenario& scenario,
+                 const dm::FemConfig& fem_config, const core::ParticleCloud& cloud) {
   const std::vector<Vector3d> patches = {Vector3d(0.125, -0.03, 0.27), Vector3d(-0.125, 0.03, 0.27)};
-  const bool cgal = str("mesher", "voxel") == "cgal";
-  const core::TriangleMesh surface = cgal ? tbarUnionSurface() : tbarSurface();
-  core::ResultField reference;
-  if (a.count("ref")) reference = core::readResult(a["ref"]);
-  std::vector<int> orders;
-  const std::string order_text = str("orders", "2");
-  for (char c : order_text)
-    if (c == '1' || c == '2') orders.push_back(c - '0');
-  const std::vector<double> hs = parseList(str("hs", "0.02,0.015,0.01,0.0075"));
-  std::vector<Level> levels;
-  for (int order : orders)
-    for (double h : hs) {
-      dm::VoxelMeshConfig voxel;
-      voxel.cell = h;
-      voxel.order = order;
-      const auto start = std::chrono::steady_clock::now();
-      dm::CgalMeshConfig cgal_config;
-      cgal_config.cell = h;
-      cgal_config.order = order;
-      dm::FemSolver fem(cgal ? dm::cgalMeshFromSurface(surface, cgal_config) : dm::voxelMeshFromSurface(surface, voxel),
-                        scenario, fem_config);
-      const dm::FemResult& r = fem.solve();
-      Level level;
-      level.seconds = since(start);
-      level.order = order;
-      level.h = h;
-      level.elements = fem.mesh().elements.size();
-      level.dofs = 3 * fem.mesh().nodes.size();
-      level.energy = r.energy;
-      level.newton = r.newton_iterations;
-      level.max_u = 0;
-      for (const auto& u : r.displacement) level.max_u = std::max(level.max_u, u.norm());
-      const dm::PointField at = fem.interpolate(cloud.positions);
-      level.u = at.displacement;
-      level.von_mises = at.von_mises;
-      const auto p = fem.interpolate(patches).displacement;
-      level.patch[0] = p[0];
-      level.patch[1] = p[1];
-      std::fprintf(stderr, "TET%d h=%g: %zu elements, %zu dofs, %.1f s, %d Newton its\n", order == 1 ? 4 : 10, h,
-                   level.elements, level.dofs, level.seconds, level.newton);
-      if (!reference.displacements.empty()) {
-        if (reference.size() != cloud.size()) {
-          std::fprintf(stderr, "ref has %zu rows, the particles %zu: use the particle_h it was written with\n",
-                       reference.size(), cloud.size());
-          return 1;
-        }
-        double e = 0, r = 0;
-        for (std::size_t i = 0; i < cloud.size(); ++i) {
-          e += (level.u[i] - reference.displacements[i]).squaredNorm();
-          r += reference.displacements[i].squaredNorm();
-        }
-        std::printf("%s TET%d h=%g: %zu elements, %zu dofs, %.1f s (mesh + solve), rel L2 vs %s: %.3e\n",
-                    cgal ? "cgal" : "voxel", order == 1 ? 4 : 10, h, level.elements, level.dofs, level.seconds,
-                    a["ref"].c_str(), std::sqrt(e / r));
-      }
-      levels.push_back(std::move(level));
-    }
-  if (levels.empty()) return 0;
-  // The finest level: the most dofs.
-  const Level& finest = *std::max_element(levels.begin(), levels.end(),
-                                          [](const Level& x, const Level& y) { return x.dofs < y.dofs; });
+  dm::VoxelMeshConfig voxel;
+  voxel.cell = h;
+  voxel.order = order;
+  const auto start = std::chrono::steady_clock::now();
+  dm::CgalMeshConfig cgal_config;
+  cgal_config.cell = h;
+  cgal_config.order = order;
+  dm::FemSolver fem(cgal ? dm::cgalMeshFromSurface(surface, cgal_config) : dm::voxelMeshFromSurface(surface, voxel),
+                    scenario, fem_config);
+  const dm::FemResult& r = fem.solve();
+  Level level;
+  level.seconds = since(start);
+  level.order = order;
+  level.h = h;
+  level.elements = fem.mesh().elements.size();
+  level.dofs = 3 * fem.mesh().nodes.size();
+  level.energy = r.energy;
+  level.newton = r.newton_iterations;
+  level.max_u = 0;
+  for (const auto& u : r.displacement) level.max_u = std::max(level.max_u, u.norm());
+  const dm::PointField at = fem.interpolate(cloud.positions);
+  level.u = at.displacement;
+  level.von_mises = at.von_mises;
+  const auto p = fem.interpolate(patches).displacement;
+  level.patch[0] = p[0];
+  level.patch[1] = p[1];
+  std::fprintf(stderr, "TET%d h=%g: %zu elements, %zu dofs, %.1f s, %d Newton its\n", order == 1 ? 4 : 10, h,
+               level.elements, level.dofs, level.seconds, level.newton);
+  return level;
+}
+
+/// The table of the levels, each against the finest one (the most dofs).
+void printConvergence(const std::vector<Level>& levels, const Level& finest, std::size_t particles, double particle_h) {
   double ref_norm = 0;
   for (const auto& u : finest.u) ref_norm += u.squaredNorm();
   std::printf("T-bar twist, %zu grid particles (h = %g m); rel L2 = ||u - u_finest|| / ||u_finest|| at the particles\n",
-              cloud.size(), num("particle_h", 0.0075));
+              particles, particle_h);
   std::printf("| element | h (m) | elements | dofs | seconds | Newton its | max |u| (mm) | |u| patch +x (mm) | |u| patch -x (mm) | energy (J) | rel L2 vs finest |\n");
   std::printf("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
   for (const Level& l : levels) {
@@ -245,14 +212,63 @@ int main(int argc, char** argv) {
                 l.elements, l.dofs, l.seconds, l.newton, 1e3 * l.max_u, 1e3 * l.patch[0].norm(), 1e3 * l.patch[1].norm(),
                 l.energy, std::sqrt(e / ref_norm));
   }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);
+  const Arguments a = demnerf::bench::keyValueArguments(argc, argv);
+  const core::Scenario scenario = twistScenario(a);
+  dm::FemConfig fem_config;
+  fem_config.threads = static_cast<int>(number(a, "threads", 0));
+  fem_config.verbose = number(a, "verbose", 0) != 0;
+  if (a.count("reuse")) fem_config.reuse_factorisation_iterations = static_cast<int>(number(a, "reuse", 30));
+  if (text(a, "mode", "converge") == "speed") {
+    runSpeed(a, scenario, fem_config);
+    return 0;
+  }
+
+  const core::ParticleCloud cloud = tbarParticles(number(a, "particle_h", 0.0075));
+  const bool cgal = text(a, "mesher", "voxel") == "cgal";
+  const core::TriangleMesh surface = cgal ? tbarUnionSurface() : demnerf::bench::tbarSurface();
+  core::ResultField reference;
+  if (a.count("ref")) reference = core::readResult(a.at("ref"));
+  if (!reference.displacements.empty() && reference.size() != cloud.size()) {
+    std::fprintf(stderr, "ref has %zu rows, the particles %zu: use the particle_h it was written with\n",
+                 reference.size(), cloud.size());
+    return 1;
+  }
+  std::vector<int> orders;
+  for (char c : text(a, "orders", "2"))
+    if (c == '1' || c == '2') orders.push_back(c - '0');
+  std::vector<Level> levels;
+  for (int order : orders)
+    for (double h : parseList(text(a, "hs", "0.02,0.015,0.01,0.0075"))) {
+      levels.push_back(solveLevel(surface, cgal, order, h, scenario, fem_config, cloud));
+      const Level& level = levels.back();
+      if (reference.displacements.empty()) continue;
+      double e = 0, r = 0;
+      for (std::size_t i = 0; i < cloud.size(); ++i) {
+        e += (level.u[i] - reference.displacements[i]).squaredNorm();
+        r += reference.displacements[i].squaredNorm();
+      }
+      std::printf("%s TET%d h=%g: %zu elements, %zu dofs, %.1f s (mesh + solve), rel L2 vs %s: %.3e\n",
+                  cgal ? "cgal" : "voxel", order == 1 ? 4 : 10, h, level.elements, level.dofs, level.seconds,
+                  a.at("ref").c_str(), std::sqrt(e / r));
+    }
+  if (levels.empty()) return 0;
+  const Level& finest = *std::max_element(levels.begin(), levels.end(),
+                                          [](const Level& x, const Level& y) { return x.dofs < y.dofs; });
+  printConvergence(levels, finest, cloud.size(), number(a, "particle_h", 0.0075));
   if (a.count("ref_out")) {
     core::ResultField result;
     result.positions = cloud.positions;
     result.displacements = finest.u;
     result.von_mises = finest.von_mises;
-    core::writeResult(a["ref_out"], result);
+    core::writeResult(a.at("ref_out"), result);
     std::printf("wrote the TET%d h = %g result at the %zu particles to %s\n", finest.order == 1 ? 4 : 10, finest.h,
-                cloud.size(), a["ref_out"].c_str());
+                cloud.size(), a.at("ref_out").c_str());
   }
   return 0;
 }

@@ -32,10 +32,10 @@ nerf::NerfModel withMarch(const nerf::NerfModel& model, double cone, double tran
   config.march.render_cone_angle = cone;
   config.march.render_min_transmittance = transmittance;
   nerf::NerfModel copy(config, model.bounds(), model.aabbScale());
-  copy.field().table() = model.field().table();
-  copy.field().densityWeights() = model.field().densityWeights();
-  copy.field().colorWeights() = model.field().colorWeights();
-  copy.field().refreshTransposed();
+  copy.ngp().table() = model.ngp().table();
+  copy.ngp().densityWeights() = model.ngp().densityWeights();
+  copy.ngp().colorWeights() = model.ngp().colorWeights();
+  copy.ngp().refreshTransposed();
   copy.grid().thickness() = model.grid().thickness();
   copy.grid().bits() = model.grid().bits();
   return copy;

@@ -1,6 +1,5 @@
-// The FEM's discrete problem: per-element shape gradients and quadrature, the tangent's sparsity
-// pattern (nodes ordered, elements coloured for parallel assembly), consistent loads, and the
-// energy, residual and tangent at a state.
+// The FEM's discrete problem: per-element shape gradients and quadrature, consistent loads, and
+// the energy, residual and tangent at a state (the tangent's sparsity pattern: fem_pattern.cpp).
 #include <algorithm>
 #include <cmath>
 
@@ -8,7 +7,6 @@
 #include "demnerf/mechanics/boundary_conditions.hpp"
 #include "demnerf/mechanics/boundary_load_quadrature.hpp"
 #include "fem_solver_impl.hpp"
-#include "fill_reducing_order.hpp"
 #include "parallel_for.hpp"
 
 namespace demnerf::mechanics {
@@ -75,114 +73,6 @@ void FemSolver::Impl::setup() {
   buildGrid();
 }
 
-void FemSolver::Impl::setupPattern() {
-  const int n_nodes = static_cast<int>(mesh.nodes.size());
-  const int n_el = static_cast<int>(mesh.elements.size());
-  // Node -> elements (CSR).
-  std::vector<int> start(n_nodes + 1, 0), list(static_cast<std::size_t>(n_el) * n);
-  for (const auto& el : mesh.elements)
-    for (int a = 0; a < n; ++a) ++start[el[a] + 1];
-  for (int i = 0; i < n_nodes; ++i) start[i + 1] += start[i];
-  {
-    std::vector<int> fill(start.begin(), start.end() - 1);
-    for (int e = 0; e < n_el; ++e)
-      for (int a = 0; a < n; ++a) list[fill[mesh.elements[e][a]]++] = e;
-  }
-  // Greedy colouring: an element takes the first colour none of its node neighbours has.
-  std::vector<int> colour(n_el, -1), stamp;
-  for (int e = 0; e < n_el; ++e) {
-    for (int a = 0; a < n; ++a) {
-      const int node = mesh.elements[e][a];
-      for (int k = start[node]; k < start[node + 1]; ++k) {
-        const int c = colour[list[k]];
-        if (c < 0) continue;
-        if (c >= static_cast<int>(stamp.size())) stamp.resize(c + 1, -1);
-        stamp[c] = e;
-      }
-    }
-    int c = 0;
-    while (c < static_cast<int>(stamp.size()) && stamp[c] == e) ++c;
-    colour[e] = c;
-    if (c >= static_cast<int>(colours.size())) colours.resize(c + 1);
-    colours[c].push_back(e);
-  }
-  // Node adjacency (CSR, sorted, self included).
-  std::vector<int> adj_start(n_nodes + 1, 0), adj;
-  {
-    std::vector<int> mark(n_nodes, -1), neighbours;
-    for (int node = 0; node < n_nodes; ++node) {
-      neighbours.clear();
-      for (int k = start[node]; k < start[node + 1]; ++k)
-        for (int a = 0; a < n; ++a) {
-          const int other = mesh.elements[list[k]][a];
-          if (mark[other] != node) {
-            mark[other] = node;
-            neighbours.push_back(other);
-          }
-        }
-      std::sort(neighbours.begin(), neighbours.end());
-      adj.insert(adj.end(), neighbours.begin(), neighbours.end());
-      adj_start[node + 1] = static_cast<int>(adj.size());
-    }
-  }
-  // Node order for the factorisation, then free dofs numbered node by node in that order.
-  std::vector<int> order;
-  if (config.ordering == FemConfig::Ordering::kNestedDissection) {
-    order = nestedDissection(mesh.nodes, adj_start, adj);
-  } else {
-    order.resize(n_nodes);
-    for (int i = 0; i < n_nodes; ++i) order[i] = i;
-  }
-  std::vector<int> rank(n_nodes);
-  for (int i = 0; i < n_nodes; ++i) rank[order[i]] = i;
-  n_free = 0;
-  for (int node : order)
-    for (int c = 0; c < 3; ++c)
-      if (free_index[3 * node + c] >= 0) free_index[3 * node + c] = n_free++;
-  // Column pattern of the lower triangle: rows of a column come out sorted when the neighbour
-  // nodes are visited in increasing rank.
-  std::vector<int> outer(n_free + 1, 0), inner, neighbours;
-  for (int node : order) {
-    neighbours.clear();
-    for (int k = adj_start[node]; k < adj_start[node + 1]; ++k)
-      if (rank[adj[k]] >= rank[node]) neighbours.push_back(adj[k]);
-    std::sort(neighbours.begin(), neighbours.end(), [&](int x, int y) { return rank[x] < rank[y]; });
-    for (int c = 0; c < 3; ++c) {
-      const int col = free_index[3 * node + c];
-      if (col < 0) continue;
-      for (int other : neighbours)
-        for (int r = 0; r < 3; ++r) {
-          const int row = free_index[3 * other + r];
-          if (row >= col) inner.push_back(row);
-        }
-      outer[col + 1] = static_cast<int>(inner.size());
-    }
-  }
-  K.resize(n_free, n_free);
-  K.resizeNonZeros(static_cast<Eigen::Index>(inner.size()));
-  std::copy(outer.begin(), outer.end(), K.outerIndexPtr());
-  std::copy(inner.begin(), inner.end(), K.innerIndexPtr());
-  std::fill(K.valuePtr(), K.valuePtr() + inner.size(), 0.0);
-  // Scatter positions.
-  const int m = 3 * n, packed = m * (m + 1) / 2;
-  scatter.assign(static_cast<std::size_t>(n_el) * packed, -1);
-  parallelFor(n_el, threads, [&](long begin, long end) {
-    for (int e = begin; e < end; ++e)
-      for (int r = 0; r < m; ++r) {
-        const int fr = free_index[3 * mesh.elements[e][r / 3] + r % 3];
-        if (fr < 0) continue;
-        for (int c = 0; c <= r; ++c) {
-          const int fc = free_index[3 * mesh.elements[e][c / 3] + c % 3];
-          if (fc < 0) continue;
-          const int row = std::max(fr, fc), col = std::min(fr, fc);
-          const int* first = K.innerIndexPtr() + K.outerIndexPtr()[col];
-          const int* last = K.innerIndexPtr() + K.outerIndexPtr()[col + 1];
-          scatter[static_cast<std::size_t>(e) * packed + r * (r + 1) / 2 + c] =
-              static_cast<int>(std::lower_bound(first, last, row) - K.innerIndexPtr());
-        }
-      }
-  });
-}
 void FemSolver::Impl::setupLoads() {
   const auto faces = boundaryFaces(mesh);
   for (const core::Load& load : scenario.loads) {

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "demnerf/core/error.hpp"
+#include "attached_clock.hpp"
 #include "fem_solver_impl.hpp"
 
 namespace demnerf::mechanics {
@@ -16,6 +17,40 @@ namespace {
 
 double secondsSince(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+/// Backtracking on the potential energy along a Newton step: the first of 12 halvings whose
+/// energy is finite (a step that inverts an element has infinite energy) and, when the
+/// constrained dofs are at their targets, decreases enough. Near convergence energy differences
+/// drown in round-off, so a relative slack is allowed.
+struct LineSearch {
+  bool accepted = false, any_finite = false;
+  double alpha = 1.0;
+};
+
+template <class EnergyAt>
+LineSearch backtrack(const EnergyAt& energy_at, double e0, double slope, bool require_decrease) {
+  LineSearch out;
+  for (int k = 0; k < 12; ++k, out.alpha *= 0.5) {
+    const double e = energy_at(out.alpha);
+    if (!std::isfinite(e)) continue;
+    out.any_finite = true;
+    if (!require_decrease || e <= e0 + 1e-4 * out.alpha * slope + 1e-12 * std::abs(e0)) {
+      out.accepted = true;
+      return out;
+    }
+  }
+  return out;
+}
+
+void reportNewton(SolveClock& clock, double scale, int iteration, double energy, double residual) {
+  SolveProgress progress;
+  progress.phase = "newton";
+  progress.load_fraction = scale;
+  progress.iteration = iteration;
+  progress.energy = energy;
+  progress.residual = residual;
+  clock.report(progress);
 }
 
 }  // namespace
@@ -118,15 +153,7 @@ bool FemSolver::Impl::newton(double scale) {
     const double load = scale * f_ext.norm() > 0.0 ? scale * f_ext.norm() : internal_norm;
     result.residual = load > 0.0 ? res / load : res;
     if (config.verbose) std::cerr << "fem: scale " << scale << " it " << it << " |R| " << res << " ref " << ref << "\n";
-    if (clock) {
-      SolveProgress progress;
-      progress.phase = "newton";
-      progress.load_fraction = scale;
-      progress.iteration = result.newton_iterations;
-      progress.energy = e0;
-      progress.residual = result.residual;
-      clock->report(progress);
-    }
+    if (clock) reportNewton(*clock, scale, result.newton_iterations, e0, result.residual);
     // Residuals of tiny loads drown in the round-off of P = mu (F - F^-T) + ..., so a vanishing
     // Newton update also counts as converged.
     if (at_target && (res <= config.tolerance * ref ||
@@ -140,29 +167,16 @@ bool FemSolver::Impl::newton(double scale) {
     for (int d = 0; d < ndof; ++d)
       if (free_index[d] >= 0) du(d) = du_free(free_index[d]);
     ++result.newton_iterations;
-    // Backtracking on the potential energy; a step that inverts an element has infinite energy.
     t0 = std::chrono::steady_clock::now();
-    const double slope = R.dot(du);
-    double alpha = 1.0;
-    bool accepted = false, any_finite = false;
-    for (int k = 0; k < 12; ++k, alpha *= 0.5) {
-      const Eigen::VectorXd trial = u + alpha * du;
-      const double e = energy(trial, scale);
-      if (!std::isfinite(e)) continue;
-      any_finite = true;
-      // Near convergence energy differences drown in round-off: allow a relative slack.
-      if (!at_target || e <= e0 + 1e-4 * alpha * slope + 1e-12 * std::abs(e0)) {
-        last_update = alpha * du.norm();
-        u = trial;
-        accepted = true;
-        break;
-      }
-    }
+    const LineSearch step = backtrack([&](double alpha) { return energy(u + alpha * du, scale); }, e0, R.dot(du),
+                                      at_target);
     result.line_search_seconds += secondsSince(t0);
-    if (!accepted) {
-      if (!any_finite) failure = Failure::kInverted;
+    if (!step.accepted) {
+      if (!step.any_finite) failure = Failure::kInverted;
       return false;
     }
+    last_update = step.alpha * du.norm();
+    u = u + step.alpha * du;
   }
   return false;
 }
@@ -178,11 +192,7 @@ const FemResult& FemSolver::solve(const SolveControl& control) {
 }
 
 const FemResult& FemSolver::solve(SolveClock& clock) {
-  impl_->clock = &clock;
-  struct Detach {  // the clock lives only as long as this call
-    Impl& m;
-    ~Detach() { m.clock = nullptr; }
-  } detach{*impl_};
+  const AttachedClock attached(impl_->clock, clock);
   return impl_->solveAll();
 }
 

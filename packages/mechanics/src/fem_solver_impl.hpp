@@ -1,6 +1,7 @@
 #pragma once
 // FemSolver's state and parts, private to packages/mechanics/src:
-//   fem_assembly.cpp  quadrature, sparsity pattern, loads, energy, residual and tangent
+//   fem_assembly.cpp  quadrature, loads, energy, residual and tangent
+//   fem_pattern.cpp   the tangent's sparsity: element colours, node order, free dofs, scatter
 //   fem_newton.cpp    the linear solves, Newton with its line search, and the load stepping
 //   fem_solver.cpp    the public FemSolver and interpolation at arbitrary points
 

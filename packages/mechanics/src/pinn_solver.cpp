@@ -15,6 +15,7 @@
 #include "demnerf/mechanics/boundary_conditions.hpp"
 #include "demnerf/mechanics/material.hpp"
 #include "adaptive_load_steps.hpp"
+#include "attached_clock.hpp"
 #include "amplitude_fit.hpp"
 #include "network_optimisers.hpp"
 #include "displacement_mlp.hpp"
@@ -285,12 +286,8 @@ PinnReport PinnSolver::solve(const SolveControl& control) {
 }
 
 PinnReport PinnSolver::solve(SolveClock& clock) {
-  impl_->clock = &clock;
   impl_->last_report = -1e300;
-  struct Detach {  // the clock lives only as long as this call
-    Impl& m;
-    ~Detach() { m.clock = nullptr; }
-  } detach{*impl_};
+  const AttachedClock attached(impl_->clock, clock);
   return impl_->solveAll();
 }
 

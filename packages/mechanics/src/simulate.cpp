@@ -42,6 +42,104 @@ double medianParticleEdge(const core::ParticleCloud& cloud) {
   return std::cbrt(v[v.size() / 2]);
 }
 
+/// The voxel (or CGAL) cell of an automatic FEM mesh: from the body and the accuracy asked for,
+/// not from how finely it was sampled. Voxels of particles are a whole number of the particles'
+/// own cells (no finer: empty cells would be holes), so a grid-sampled body keeps its faces.
+VoxelMeshConfig femVoxels(const core::ParticleCloud& cloud, const SimulateOptions& options) {
+  VoxelMeshConfig voxel = options.voxel;
+  if (voxel.cell != 0.0) return voxel;
+  const BodyMeasures body = options.surface ? measureSurface(*options.surface) : measureParticles(cloud);
+  voxel.cell = automaticCell(body, MeshSizeRule{voxel.elements_across, voxel.max_dofs, voxel.order});
+  if (!options.surface) {
+    const double spacing = medianParticleEdge(cloud);
+    if (spacing > 0.0) voxel.cell = spacing * std::max(1.0, std::round(voxel.cell / spacing));
+  }
+  return voxel;
+}
+
+/// Says what is being built before the (uninterruptible) meshing and first factorisation.
+void reportMeshing(const core::ParticleCloud& cloud, const SimulateOptions& options, const VoxelMeshConfig& voxel,
+                   bool cgal, SolveClock& clock) {
+  SolveProgress meshing;
+  const double volume = options.surface ? measureSurface(*options.surface).volume : measureParticles(cloud).volume;
+  std::ostringstream phase;
+  phase << (cgal ? "mesh (CGAL, " : "mesh (voxels, ") << (voxel.order == 2 ? "TET10" : "TET4") << ", cell "
+        << voxel.cell * 1e3 << " mm, ~" << std::lround(expectedDofs(volume, voxel.cell, voxel.order)) << " dofs)";
+  meshing.phase = phase.str();
+  meshing.residual = std::numeric_limits<double>::quiet_NaN();
+  clock.report(meshing, true);
+}
+
+/// The FEM's mesh of the body: CGAL from the surface, or voxels of the surface or the particles;
+/// specks of a reconstructed body that touch no fixture are dropped (they would make the
+/// stiffness singular).
+TetMesh femMesh(const core::ParticleCloud& cloud, const core::Scenario& scenario, const SimulateOptions& options,
+                const VoxelMeshConfig& voxel, bool cgal) {
+  TetMesh mesh;
+  if (cgal) {
+    CgalMeshConfig config;
+    config.cell = voxel.cell;
+    config.order = voxel.order;
+    mesh = cgalMeshFromSurface(*options.surface, config);
+  } else if (options.surface) {
+    mesh = voxelMeshFromSurface(*options.surface, voxel);
+  } else {
+    mesh = voxelMeshFromParticles(cloud, voxel);
+  }
+  return keepHeldPieces(mesh, [&](const Eigen::Vector3d& x) {
+    for (const core::Fixture& f : scenario.fixtures)
+      if (f.region.contains(x)) return true;
+    return false;
+  });
+}
+
+void solveDem(const core::ParticleCloud& cloud, const core::Scenario& scenario, const SimulateOptions& options,
+              SimulationOutcome& out) {
+  DemSolver dem(cloud, scenario, options.dem);
+  dem.setControl(options.control);
+  out.energy = dem.solve().energy;
+  out.field = dem.result();
+  if (!options.dem_model_path.empty()) saveDemModel(dem, options.dem_model_path);
+}
+
+void solveFem(const core::ParticleCloud& cloud, const core::Scenario& scenario, const SimulateOptions& options,
+              SimulationOutcome& out) {
+  SolveClock clock(options.control, "fem");
+  const bool cgal = options.surface && options.mesher == SimulateOptions::Mesher::kCgal;
+  const VoxelMeshConfig voxel = femVoxels(cloud, options);
+  reportMeshing(cloud, options, voxel, cgal, clock);
+  TetMesh mesh = femMesh(cloud, scenario, options, voxel, cgal);
+  out.mesh_nodes = static_cast<int>(mesh.nodes.size());
+  out.mesh_elements = static_cast<int>(mesh.elements.size());
+  out.mesh_cell = voxel.cell;
+  clock.check("no state (meshing took the budget: " + std::to_string(out.mesh_elements) +
+              " elements at a cell of " + std::to_string(voxel.cell) + " m; pass a larger --cell)");
+  FemSolver fem(std::move(mesh), scenario, options.fem);
+  out.energy = fem.solve(clock).energy;
+  const PointField at = fem.interpolate(cloud.positions);
+  out.field.positions = cloud.positions;
+  out.field.displacements = at.displacement;
+  out.field.von_mises = at.von_mises;
+  if (options.keep_fem_mesh) {
+    auto kept = std::make_shared<FemMeshSolution>();
+    kept->mesh = fem.mesh();
+    kept->displacement = fem.result().displacement;
+    // Stress is per element (discontinuous across faces); at a node, the element that
+    // locates it gives it, as at any other point.
+    kept->von_mises = fem.interpolate(kept->mesh.nodes).von_mises;
+    out.fem_mesh = std::move(kept);
+  }
+}
+
+void solvePinn(const core::ParticleCloud& cloud, const core::Scenario& scenario, const SimulateOptions& options,
+               SimulationOutcome& out) {
+  PinnSolver pinn(cloud, scenario, options.pinn);
+  const PinnReport report = pinn.solve(options.control);
+  out.energy = report.energy;  // of the trained field: the PINN minimises residuals, not energy
+  out.loss = report.loss;
+  out.field = pinn.result();
+}
+
 }  // namespace
 
 SimulationOutcome simulate(const core::ParticleCloud& cloud, const core::Scenario& scenario, SolverChoice solver,
@@ -51,87 +149,9 @@ SimulationOutcome simulate(const core::ParticleCloud& cloud, const core::Scenari
   validateProblem(scenario, cloud);
   SimulationOutcome out;
   switch (solver) {
-    case SolverChoice::kDem: {
-      DemSolver dem(cloud, scenario, options.dem);
-      dem.setControl(options.control);
-      out.energy = dem.solve().energy;
-      out.field = dem.result();
-      if (!options.dem_model_path.empty()) saveDemModel(dem, options.dem_model_path);
-      break;
-    }
-    case SolverChoice::kFem: {
-      SolveClock clock(options.control, "fem");
-      const bool cgal = options.surface && options.mesher == SimulateOptions::Mesher::kCgal;
-      VoxelMeshConfig voxel = options.voxel;
-      if (voxel.cell == 0.0) {
-        // From the body and the accuracy asked for, not from how finely it was sampled.
-        const BodyMeasures body = options.surface ? measureSurface(*options.surface) : measureParticles(cloud);
-        voxel.cell = automaticCell(body, MeshSizeRule{voxel.elements_across, voxel.max_dofs, voxel.order});
-        // Voxels of particles: a whole number of the particles' own cells (no finer: empty cells
-        // would be holes), so a grid-sampled body keeps its faces.
-        if (!options.surface) {
-          const double spacing = medianParticleEdge(cloud);
-          if (spacing > 0.0) voxel.cell = spacing * std::max(1.0, std::round(voxel.cell / spacing));
-        }
-      }
-      // Say what is being built before the (uninterruptible) meshing and first factorisation.
-      SolveProgress meshing;
-      {
-        const double volume = options.surface ? measureSurface(*options.surface).volume : measureParticles(cloud).volume;
-        std::ostringstream phase;
-        phase << (cgal ? "mesh (CGAL, " : "mesh (voxels, ") << (voxel.order == 2 ? "TET10" : "TET4") << ", cell "
-              << voxel.cell * 1e3 << " mm, ~" << std::lround(expectedDofs(volume, voxel.cell, voxel.order)) << " dofs)";
-        meshing.phase = phase.str();
-      }
-      meshing.residual = std::numeric_limits<double>::quiet_NaN();
-      clock.report(meshing, true);
-      TetMesh mesh;
-      if (cgal) {
-        CgalMeshConfig config;
-        config.cell = voxel.cell;
-        config.order = voxel.order;
-        mesh = cgalMeshFromSurface(*options.surface, config);
-      } else if (options.surface) {
-        mesh = voxelMeshFromSurface(*options.surface, voxel);
-      } else {
-        mesh = voxelMeshFromParticles(cloud, voxel);
-      }
-      // Specks of a reconstructed body that touch no fixture would make the stiffness singular.
-      mesh = keepHeldPieces(mesh, [&](const Eigen::Vector3d& x) {
-        for (const core::Fixture& f : scenario.fixtures)
-          if (f.region.contains(x)) return true;
-        return false;
-      });
-      out.mesh_nodes = static_cast<int>(mesh.nodes.size());
-      out.mesh_elements = static_cast<int>(mesh.elements.size());
-      out.mesh_cell = voxel.cell;
-      clock.check("no state (meshing took the budget: " + std::to_string(out.mesh_elements) +
-                  " elements at a cell of " + std::to_string(voxel.cell) + " m; pass a larger --cell)");
-      FemSolver fem(std::move(mesh), scenario, options.fem);
-      out.energy = fem.solve(clock).energy;
-      const PointField at = fem.interpolate(cloud.positions);
-      out.field.positions = cloud.positions;
-      out.field.displacements = at.displacement;
-      out.field.von_mises = at.von_mises;
-      if (options.keep_fem_mesh) {
-        auto kept = std::make_shared<FemMeshSolution>();
-        kept->mesh = fem.mesh();
-        kept->displacement = fem.result().displacement;
-        // Stress is per element (discontinuous across faces); at a node, the element that
-        // locates it gives it, as at any other point.
-        kept->von_mises = fem.interpolate(kept->mesh.nodes).von_mises;
-        out.fem_mesh = std::move(kept);
-      }
-      break;
-    }
-    case SolverChoice::kPinn: {
-      PinnSolver pinn(cloud, scenario, options.pinn);
-      const PinnReport report = pinn.solve(options.control);
-      out.energy = report.energy;  // of the trained field: the PINN minimises residuals, not energy
-      out.loss = report.loss;
-      out.field = pinn.result();
-      break;
-    }
+    case SolverChoice::kDem: solveDem(cloud, scenario, options, out); break;
+    case SolverChoice::kFem: solveFem(cloud, scenario, options, out); break;
+    case SolverChoice::kPinn: solvePinn(cloud, scenario, options, out); break;
   }
   for (const auto& u : out.field.displacements) out.max_displacement = std::max(out.max_displacement, u.norm());
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -14,6 +14,7 @@
 #include "demnerf/mechanics/reference_problems.hpp"
 
 #include "box_region.hpp"
+#include "parametric_mlp.hpp"
 
 namespace dm = demnerf::mechanics;
 namespace core = demnerf::core;
@@ -102,15 +103,7 @@ TEST(Dem, OutputLayerNewtonAloneSolvesTheUniaxialStretch) {
 TEST(Dem, ParametricModeAnswersEveryLoadInItsRangeWithoutRetraining) {
   const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(6, 6, 6));
   const core::Scenario s = uniaxial(2e5);
-  dm::DemConfig config;
-  config.grid.body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
-  config.network.width = 16;
-  config.network.depth = 2;
-  config.adam.iterations = 600;
-  config.parametric.enabled = true;
-  config.parametric.load_range_min = 0.0;
-  config.parametric.load_range_max = 1.0;
-  config.threads = 1;
+  dm::DemConfig config = dm::test::parametricMlp(16, 600, 1.0);
   dm::DemSolver dem(cloud, s, config);
   const dm::DemReport r = dem.solve();
   const auto material = dm::makeMaterial(s.material);
@@ -228,14 +221,7 @@ TEST(Dem, CrushingLoadIsReportedNotReturned) {
 
 TEST(Dem, SavedModelsPredictExactlyAsBeforeAndDamageIsReported) {
   const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(4, 4, 4));
-  dm::DemConfig config;
-  config.grid.body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
-  config.network.width = 8;
-  config.network.depth = 2;
-  config.adam.iterations = 50;
-  config.parametric.enabled = true;
-  config.parametric.load_range_max = 1.5;
-  config.threads = 1;
+  const dm::DemConfig config = dm::test::parametricMlp(8, 50, 1.5);
   dm::DemSolver dem(cloud, uniaxial(1e5), config);
   dem.solve();
   const std::string path = ::testing::TempDir() + "dem_model_" + std::to_string(::getpid()) + ".dem";

@@ -4,6 +4,7 @@
 #include "demnerf/mechanics/box_particles.hpp"
 #include "demnerf/mechanics/dem_session.hpp"
 #include "demnerf/mechanics/reference_problems.hpp"
+#include "parametric_mlp.hpp"
 
 namespace dm = demnerf::mechanics;
 namespace core = demnerf::core;
@@ -41,15 +42,7 @@ TEST(DemSession, LoadScaleIsFoundOnlyForAPureScaling) {
 }
 
 TEST(DemSession, ScaledLoadsAreAnsweredInstantlyOthersWarmStarted) {
-  dm::DemConfig config;
-  config.grid.body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
-  config.network.width = 16;
-  config.network.depth = 2;
-  config.adam.iterations = 300;
-  config.parametric.enabled = true;
-  config.parametric.load_range_min = 0.0;
-  config.parametric.load_range_max = 1.5;
-  config.threads = 1;
+  const dm::DemConfig config = dm::test::parametricMlp(16, 300, 1.5);
   dm::DemSession session(config);
   EXPECT_THROW(session.answer(dm::uniaxialTractionScenario(2e5)), core::Error);  // no particles yet
   session.setParticles(dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(6, 6, 6)));

@@ -5,7 +5,7 @@
 namespace demnerf::nerf {
 
 NerfModel::NerfModel(const NerfConfig& config, const Box& bounds, double aabb_scale)
-    : field_(config, bounds, aabb_scale, config.train.seed),
+    : ngp_(config, bounds, aabb_scale, config.train.seed),
       march_(MarchParams::make(config.march, bounds, aabb_scale, config.occupancy.resolution)),
       render_march_(MarchParams::makeRender(config.march, bounds, aabb_scale, config.occupancy.resolution)) {
   grid_ = OccupancyGrid(config.occupancy, bounds, march_.min_step, cascadeCount(config.occupancy, aabb_scale));
@@ -28,7 +28,7 @@ std::vector<float> NerfModel::densityGrid(int resolution) const {
         for (int a = 0; a < 3; ++a) points[k++] = box.min[a] + (idx[a] + 0.5f) / resolution * box.size(a);
       }
     }
-    field_.density(points.data(), static_cast<std::int64_t>(resolution) * resolution,
+    field().density(points.data(), static_cast<std::int64_t>(resolution) * resolution,
                    sigma.data() + static_cast<std::int64_t>(z) * resolution * resolution);
   }
   return sigma;

@@ -21,7 +21,7 @@ void append(std::string& out, const T* data, std::size_t count) {
 }  // namespace
 
 void saveModel(const NerfModel& model, const std::string& path) {
-  const NgpField& f = model.field();
+  const NgpField& f = model.ngp();
   const OccupancyGrid& g = model.grid();
   const Box box = model.bounds();
   nlohmann::json header;
@@ -86,7 +86,7 @@ NerfModel loadModel(const std::string& path) {
     throw Error(where + " is corrupt: bad bounds or aabb_scale (" + e.what() + ")");
   }
   NerfModel model(config, box, aabb_scale);
-  NgpField& f = model.field();
+  NgpField& f = model.ngp();
   OccupancyGrid& g = model.grid();
   struct Target {
     const char* name;

@@ -113,7 +113,7 @@ void marchBlock(const NerfModel& model, const TrainRays& batch, Worker& st, std:
     if (total == 0) break;
     st.marched += total;
     const std::size_t round_first_piece = st.used;
-    forwardRound(model.field(), st, total);
+    forwardRound(model.ngp(), st, total);
     compositeRound(st, rays, round_first_piece, min_t);
   }
 }
@@ -183,7 +183,7 @@ void backwardBlock(const NgpField& field, Worker& st) {
 struct TrainEngine::ThreadState : Worker {};
 
 TrainEngine::TrainEngine(NerfModel& model) : model_(model) {
-  NgpField& f = model.field();
+  NgpField& f = model.ngp();
   table_moments_.resize(f.table().size());
   density_moments_.resize(f.densityWeights().size());
   color_moments_.resize(f.colorWeights().size());
@@ -223,7 +223,7 @@ StepResult TrainEngine::step(const TrainRays& batch, float learning_rate) {
 }
 
 void TrainEngine::runPasses(const TrainRays& batch) {
-  const NgpField& field = model_.field();
+  const NgpField& field = model_.ngp();
   const std::int64_t n = batch.size();
   const int workers = std::max(1, at::get_num_threads());
   while (static_cast<int>(threads_.size()) < workers) {
@@ -274,7 +274,7 @@ void TrainEngine::runPasses(const TrainRays& batch) {
 void TrainEngine::updateTable(const AdamHyper& h) {
   // Levels own disjoint table ranges, so workers split the levels and update each level's
   // touched entries while they are still in cache.
-  NgpField& field = model_.field();
+  NgpField& field = model_.ngp();
   const auto t1 = Clock::now();
   const HashGridLayout& layout = field.hashLayout();
   std::vector<double> table_seconds(layout.levels, 0.0);
@@ -303,7 +303,7 @@ void TrainEngine::updateTable(const AdamHyper& h) {
 }
 
 void TrainEngine::updateMlps(const AdamHyper& h) {
-  NgpField& field = model_.field();
+  NgpField& field = model_.ngp();
   const auto t2 = Clock::now();
   // Sum the workers' gradients in a fixed order, then one fused Adam pass.
   MlpGradients& sum = threads_[0]->grads;

@@ -163,34 +163,43 @@ TEST(Compositing, StopsOnceOpaque) {
   EXPECT_NEAR(r.opacity[0].item<float>(), 1.0f, 1e-4);
 }
 
-// The fused field backward (MLPs + sigmoid + trunc_exp) against finite differences of the
-// chunk forward, for weights of both networks and for the encoding input.
-TEST(NgpField, ChunkBackwardMatchesFiniteDifferences) {
+NerfConfig chunkConfig() {
   NerfConfig config;
   config.hash = smallGrid();
   config.field.density_hidden = 16;
   config.field.color_hidden = 16;
-  Box box;
-  NgpField field(config, box, 1.0, 11);
-  // Larger table values than the default init, so the MLPs see non-trivial inputs.
-  std::mt19937 rng(13);
-  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-  for (float& v : field.table()) v = u(rng);
-  field.refreshTransposed();
-  const int n = 16;
-  std::vector<float> unit(3 * n), dirs(3 * n), wsig(n), wrgb(3 * n);
-  std::uniform_real_distribution<float> u01(0.05f, 0.95f);
-  for (int i = 0; i < n; ++i) {
-    float d[3] = {u(rng), u(rng), u(rng)};
-    const float norm = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-    for (int a = 0; a < 3; ++a) {
-      unit[3 * i + a] = u01(rng);
-      dirs[3 * i + a] = d[a] / norm;
-      wrgb[3 * i + a] = u(rng);
+  return config;
+}
+
+/// A small field with table values larger than the default init (so the MLPs see non-trivial
+/// inputs), n random unit-cube points and directions, and the weights of a linear objective
+/// sum(wsig * sigma + wrgb . rgb) whose gradient is the backward's input.
+struct ChunkProblem {
+  static constexpr int n = 16;
+  NgpField field{chunkConfig(), Box(), 1.0, 11};
+  std::vector<float> unit = std::vector<float>(3 * n), dirs = std::vector<float>(3 * n);
+  std::vector<float> wsig = std::vector<float>(n), wrgb = std::vector<float>(3 * n);
+
+  ChunkProblem() {
+    std::mt19937 rng(13);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    for (float& v : field.table()) v = u(rng);
+    field.refreshTransposed();
+    std::uniform_real_distribution<float> u01(0.05f, 0.95f);
+    for (int i = 0; i < n; ++i) {
+      float d[3] = {u(rng), u(rng), u(rng)};
+      const float norm = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+      for (int a = 0; a < 3; ++a) {
+        unit[3 * i + a] = u01(rng);
+        dirs[3 * i + a] = d[a] / norm;
+        wrgb[3 * i + a] = u(rng);
+      }
+      wsig[i] = u(rng) * 0.1f;
     }
-    wsig[i] = u(rng) * 0.1f;
   }
-  auto objective = [&]() {
+
+  /// The objective through the chunk forward, for finite differences.
+  double objective() const {
     FieldWorkspace ws;
     std::vector<float> sigma(n), rgb(3 * n);
     field.forwardChunk(unit.data(), dirs.data(), n, ws, sigma.data(), rgb.data());
@@ -200,23 +209,26 @@ TEST(NgpField, ChunkBackwardMatchesFiniteDifferences) {
       for (int k = 0; k < 3; ++k) total += wrgb[3 * i + k] * rgb[3 * i + k];
     }
     return total;
-  };
-  FieldWorkspace ws;
-  std::vector<float> sigma(n), rgb(3 * n), genc(n * field.hashLayout().outputDims());
-  field.forwardChunk(unit.data(), dirs.data(), n, ws, sigma.data(), rgb.data());
-  MlpGradients grads;
-  grads.density.assign(field.densityWeights().size(), 0.0f);
-  grads.color.assign(field.colorWeights().size(), 0.0f);
-  field.backwardChunk(n, ws, wsig.data(), wrgb.data(), grads, genc.data());
+  }
+};
 
-  // Reference: the same network in double-precision torch ops with autograd (exact, no
-  // finite-difference trouble at ReLU kinks).
+/// The objective's gradients with respect to each weight matrix and the encoding, from the same
+/// network in double-precision torch ops with autograd (exact, no finite-difference trouble at
+/// ReLU kinks).
+struct ReferenceGradients {
+  std::vector<torch::Tensor> density, color;
+  torch::Tensor encoding;
+};
+
+ReferenceGradients torchReference(const ChunkProblem& p) {
+  const int n = ChunkProblem::n;
+  const NgpField& field = p.field;
   const HashGridLayout& hl = field.hashLayout();
   std::vector<float> enc(n * hl.outputDims()), sh(16 * n);
-  hashEncodeForward(hl, field.table().data(), unit.data(), n, enc.data());
-  for (int i = 0; i < n; ++i) shEncode(4, dirs[3 * i], dirs[3 * i + 1], dirs[3 * i + 2], sh.data() + 16 * i);
-  auto asTensor = [](const float* p, std::int64_t rows, std::int64_t cols) {
-    return torch::from_blob(const_cast<float*>(p), {rows, cols}, torch::kFloat32).to(torch::kFloat64);
+  hashEncodeForward(hl, field.table().data(), p.unit.data(), n, enc.data());
+  for (int i = 0; i < n; ++i) shEncode(4, p.dirs[3 * i], p.dirs[3 * i + 1], p.dirs[3 * i + 2], sh.data() + 16 * i);
+  auto asTensor = [](const float* data, std::int64_t rows, std::int64_t cols) {
+    return torch::from_blob(const_cast<float*>(data), {rows, cols}, torch::kFloat32).to(torch::kFloat64);
   };
   auto encT = asTensor(enc.data(), n, hl.outputDims()).requires_grad_(true);
   std::vector<torch::Tensor> dw, cw;
@@ -238,24 +250,53 @@ TEST(NgpField, ChunkBackwardMatchesFiniteDifferences) {
     if (l + 1 < cl.layers()) c = c.relu();
   }
   auto rgbT = c.sigmoid();
-  auto reference_loss = (sigmaT * asTensor(wsig.data(), n, 1).squeeze(1)).sum() + (rgbT * asTensor(wrgb.data(), n, 3)).sum();
-  reference_loss.backward();
-  auto compare = [](const torch::Tensor& reference, const float* ours, const char* name) {
-    auto flat = reference.contiguous().view(-1);
-    for (std::int64_t i = 0; i < flat.numel(); ++i) {
-      const double r = flat[i].item<double>();
-      ASSERT_NEAR(ours[i], r, 1e-5 + 1e-3 * std::fabs(r)) << name << " element " << i;
-    }
-  };
-  for (int l = 0; l < dl.layers(); ++l) compare(dw[l].grad(), grads.density.data() + dl.offset(l), "density weights");
-  for (int l = 0; l < cl.layers(); ++l) compare(cw[l].grad(), grads.color.data() + cl.offset(l), "colour weights");
-  compare(encT.grad(), genc.data(), "encoding");
+  auto loss = (sigmaT * asTensor(p.wsig.data(), n, 1).squeeze(1)).sum() + (rgbT * asTensor(p.wrgb.data(), n, 3)).sum();
+  loss.backward();
+  ReferenceGradients out;
+  for (auto& w : dw) out.density.push_back(w.grad());
+  for (auto& w : cw) out.color.push_back(w.grad());
+  out.encoding = encT.grad();
+  return out;
+}
+
+void expectMatches(const torch::Tensor& reference, const float* ours, const char* name) {
+  auto flat = reference.contiguous().view(-1);
+  for (std::int64_t i = 0; i < flat.numel(); ++i) {
+    const double r = flat[i].item<double>();
+    ASSERT_NEAR(ours[i], r, 1e-5 + 1e-3 * std::fabs(r)) << name << " element " << i;
+  }
+}
+
+// The fused field backward (MLPs + sigmoid + trunc_exp) against an autograd reference of the
+// chunk forward, for weights of both networks and for the encoding input.
+TEST(NgpField, ChunkBackwardMatchesFiniteDifferences) {
+  ChunkProblem p;
+  NgpField& field = p.field;
+  const int n = ChunkProblem::n;
+  FieldWorkspace ws;
+  std::vector<float> sigma(n), rgb(3 * n), genc(n * field.hashLayout().outputDims());
+  field.forwardChunk(p.unit.data(), p.dirs.data(), n, ws, sigma.data(), rgb.data());
+  MlpGradients grads;
+  grads.density.assign(field.densityWeights().size(), 0.0f);
+  grads.color.assign(field.colorWeights().size(), 0.0f);
+  field.backwardChunk(n, ws, p.wsig.data(), p.wrgb.data(), grads, genc.data());
+
+  const ReferenceGradients reference = torchReference(p);
+  const MlpLayout& dl = field.densityLayout();
+  const MlpLayout& cl = field.colorLayout();
+  for (int l = 0; l < dl.layers(); ++l) {
+    expectMatches(reference.density[l], grads.density.data() + dl.offset(l), "density weights");
+  }
+  for (int l = 0; l < cl.layers(); ++l) {
+    expectMatches(reference.color[l], grads.color.data() + cl.offset(l), "colour weights");
+  }
+  expectMatches(reference.encoding, genc.data(), "encoding");
 
   // Encoding gradient, chained through the table: d/d(entry) = sum over points of
   // grad_encoding * trilinear weight, which the table backward computes.
   std::vector<float> table_grad(field.table().size(), 0.0f);
   const HashGridLayout& layout = field.hashLayout();
-  hashEncodeBackwardTable(layout, unit.data(), n, genc.data(), table_grad.data(), 0, layout.levels);
+  hashEncodeBackwardTable(layout, p.unit.data(), n, genc.data(), table_grad.data(), 0, layout.levels);
   std::vector<float>& table = field.table();
   const float eps = 1e-3f;
   int checked = 0;
@@ -263,9 +304,9 @@ TEST(NgpField, ChunkBackwardMatchesFiniteDifferences) {
     if (table_grad[i] == 0.0f) continue;
     const float keep = table[i];
     table[i] = keep + eps;
-    const double plus = objective();
+    const double plus = p.objective();
     table[i] = keep - eps;
-    const double minus = objective();
+    const double minus = p.objective();
     table[i] = keep;
     const double fd = (plus - minus) / (2 * eps);
     EXPECT_NEAR(table_grad[i], fd, 3e-3 + 3e-2 * std::fabs(fd)) << "table entry " << i;

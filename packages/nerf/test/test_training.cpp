@@ -132,7 +132,7 @@ TEST_F(TinyScene, SameSeedAndThreadsGiveTheSameWeights) {
     Trainer trainer(tinyConfig(), tinyBox(), 1.0);
     trainer.addFrames(*train_);
     trainer.step(20);  // crosses an occupancy update
-    return trainer.model().field().table();
+    return trainer.model().ngp().table();
   };
   EXPECT_EQ(run(), run());
 }
@@ -183,7 +183,7 @@ TEST_F(TinyScene, StopsOnRequestAndTakesFramesWhileTraining) {
   ASSERT_GE(reports.size(), 2u);
   EXPECT_EQ(reports.back().frames, train_->size());
   EXPECT_GT(reports.back().rays_per_second, 0.0);
-  EXPECT_EQ(copy.field().table().size(), trainer.model().field().table().size());
+  EXPECT_EQ(copy.ngp().table().size(), trainer.model().ngp().table().size());
 }
 
 TEST_F(TinyScene, BackgroundTrainerAutosavesAndATrainerResumesFromTheFile) {

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <string>
 #include <mutex>
 #include <thread>
@@ -39,6 +40,18 @@ void checkMesh(const core::TriangleMesh& mesh, const char* what) {
   }
 }
 
+/// The rest and deformed meshes each valid, with the same vertices and faces: a hit's
+/// barycentrics on the deformed face must name the same material point at rest.
+void checkPair(const core::TriangleMesh& rest, const core::TriangleMesh& deformed) {
+  checkMesh(rest, "rest");
+  checkMesh(deformed, "deformed");
+  if (rest.vertices.size() != deformed.vertices.size() || rest.faces != deformed.faces) {
+    throw core::Error("renderer: the deformed mesh must have the rest mesh's vertices and faces (" +
+                      std::to_string(rest.vertices.size()) + " vs " + std::to_string(deformed.vertices.size()) +
+                      " vertices)");
+  }
+}
+
 // One sample's outcome, enough to tell whether a 2x2 pattern straddles an edge.
 struct Sample {
   bool hit = false;
@@ -60,13 +73,7 @@ struct MeshRenderer::Impl {
 
   Impl(const core::TriangleMesh& rest_mesh, const core::TriangleMesh& deformed_mesh, const SurfaceShader& s)
       : rest(rest_mesh), deformed(deformed_mesh), shader(s) {
-    checkMesh(rest, "rest");
-    checkMesh(deformed, "deformed");
-    if (rest.vertices.size() != deformed.vertices.size() || rest.faces != deformed.faces) {
-      throw core::Error("renderer: the deformed mesh must have the rest mesh's vertices and faces (" +
-                        std::to_string(rest.vertices.size()) + " vs " + std::to_string(deformed.vertices.size()) +
-                        " vertices)");
-    }
+    checkPair(rest, deformed);
     triangles.reserve(deformed.faces.size());
     rest_normals.reserve(rest.faces.size());
     const auto point = [](const Eigen::Vector3d& v) { return Kernel::Point_3(v.x(), v.y(), v.z()); };
@@ -133,6 +140,9 @@ struct MeshRenderer::Impl {
     result.distance = hit->distance;
     return result;
   }
+
+  void stratified(const core::PinholeCamera& camera, const Eigen::Isometry3d& pose, std::uint64_t seed, int x, int y,
+                  int m, std::vector<Sample>& out) const;
 };
 
 MeshRenderer::MeshRenderer(const core::TriangleMesh& mesh, const SurfaceShader& shader)
@@ -146,75 +156,48 @@ MeshRenderer::~MeshRenderer() = default;
 
 std::optional<SurfaceHit> MeshRenderer::castRay(const core::Ray& ray) const { return impl_->cast(ray); }
 
-cv::Mat MeshRenderer::render(const core::PinholeCamera& camera, const Eigen::Isometry3d& world_from_camera,
-                             const RenderConfig& config) const {
-  camera.validate();
-  if (config.samples_per_axis < 1 || config.samples_per_axis > 16) {
-    throw core::Error("renderer: samples_per_axis must be in 1..16, got " + std::to_string(config.samples_per_axis));
-  }
-  const int width = camera.width, height = camera.height, n = config.samples_per_axis;
-  cv::Mat image(height, width, CV_32FC4, cv::Scalar(0, 0, 0, 0));
-  const Impl& impl = *impl_;
-  // A sample's position inside its pixel: stratum (a, b) of an m x m grid, jittered by a hash of
-  // the pixel, so the image depends on nothing but the inputs.
-  const auto jitter = [&](int x, int y, int m, int index, int axis) {
-    return hashUnit(hashMix(config.seed, static_cast<std::uint64_t>(y) * 65536u + x,
-                            static_cast<std::uint64_t>(m) * 4096u + index, axis));
-  };
-  const auto renderRow = [&](int y) {
-    auto* row = image.ptr<cv::Vec4f>(y);
-    std::vector<Sample> samples;
-    for (int x = 0; x < width; ++x) {
-      samples.clear();
-      bool refine = true;
-      if (config.adaptive && n > 2) {
-        for (int index = 0; index < 4; ++index) {
-          const int a = index % 2, b = index / 2;
-          samples.push_back(impl.sample(camera, world_from_camera, x + (a + jitter(x, y, 2, index, 0)) / 2.0,
-                                        y + (b + jitter(x, y, 2, index, 1)) / 2.0));
-        }
-        refine = false;
-        const Sample& first = samples.front();
-        // Tolerance for "same plane": a hundredth of the pixel's footprint at that depth.
-        const double tolerance = 0.01 * std::max(first.distance, 1e-9) / camera.fx;
-        for (const Sample& s : samples) {
-          if (s.hit != first.hit) refine = true;
-          else if (s.hit && (s.normal.dot(first.normal) < 0.999 ||
-                             std::abs(first.normal.dot(s.point - first.point)) > tolerance)) refine = true;
-        }
-      }
-      if (refine) {
-        samples.clear();
-        for (int index = 0; index < n * n; ++index) {
-          const int a = index % n, b = index / n;
-          samples.push_back(impl.sample(camera, world_from_camera, x + (a + jitter(x, y, n, index, 0)) / n,
-                                        y + (b + jitter(x, y, n, index, 1)) / n));
-        }
-      }
-      Eigen::Vector3d color = Eigen::Vector3d::Zero();
-      int hits = 0;
-      for (const Sample& s : samples) {
-        if (!s.hit) continue;
-        color += s.color;
-        ++hits;
-      }
-      if (hits == 0) continue;
-      color /= hits;
-      row[x] = cv::Vec4f(static_cast<float>(color.x()), static_cast<float>(color.y()),
-                         static_cast<float>(color.z()),
-                         static_cast<float>(static_cast<double>(hits) / samples.size()));
+namespace {
+
+/// Whether a pixel's 2x2 pattern straddles an edge: some samples miss, or the hits leave the
+/// first hit's plane (crease or depth step). The plane tolerance is a hundredth of the pixel's
+/// footprint at that depth.
+bool straddlesEdge(const std::vector<Sample>& samples, double fx) {
+  const Sample& first = samples.front();
+  const double tolerance = 0.01 * std::max(first.distance, 1e-9) / fx;
+  for (const Sample& s : samples) {
+    if (s.hit != first.hit) return true;
+    if (s.hit && (s.normal.dot(first.normal) < 0.999 || std::abs(first.normal.dot(s.point - first.point)) > tolerance)) {
+      return true;
     }
-  };
-  int threads = config.threads > 0 ? config.threads : static_cast<int>(std::thread::hardware_concurrency());
-  threads = std::max(1, std::min(threads, height));
-  // Rows are dealt round-robin: the object sits in the middle rows, so blocks would idle threads.
+  }
+  return false;
+}
+
+/// Straight-alpha RGBA of a pixel: the mean colour of the samples that hit, alpha their share.
+cv::Vec4f averagePixel(const std::vector<Sample>& samples) {
+  Eigen::Vector3d color = Eigen::Vector3d::Zero();
+  int hits = 0;
+  for (const Sample& s : samples) {
+    if (!s.hit) continue;
+    color += s.color;
+    ++hits;
+  }
+  if (hits == 0) return cv::Vec4f(0, 0, 0, 0);
+  color /= hits;
+  return cv::Vec4f(static_cast<float>(color.x()), static_cast<float>(color.y()), static_cast<float>(color.z()),
+                   static_cast<float>(static_cast<double>(hits) / samples.size()));
+}
+
+/// Runs row(y) for every row on `threads` threads and rethrows the first failure. Rows are
+/// dealt round-robin: the object sits in the middle rows, so blocks would idle threads.
+void forEachRow(int height, int threads, const std::function<void(int)>& row) {
   std::vector<std::thread> workers;
   std::exception_ptr failure;
   std::mutex failure_mutex;
   for (int t = 0; t < threads; ++t) {
     workers.emplace_back([&, t] {
       try {
-        for (int y = t; y < height; y += threads) renderRow(y);
+        for (int y = t; y < height; y += threads) row(y);
       } catch (...) {
         std::lock_guard<std::mutex> lock(failure_mutex);
         if (!failure) failure = std::current_exception();
@@ -223,6 +206,49 @@ cv::Mat MeshRenderer::render(const core::PinholeCamera& camera, const Eigen::Iso
   }
   for (auto& worker : workers) worker.join();
   if (failure) std::rethrow_exception(failure);
+}
+
+}  // namespace
+
+/// The samples of one pixel on an m x m grid of strata, each jittered by a hash of the pixel,
+/// so the image depends on nothing but the inputs.
+void MeshRenderer::Impl::stratified(const core::PinholeCamera& camera, const Eigen::Isometry3d& pose,
+                                    std::uint64_t seed, int x, int y, int m, std::vector<Sample>& out) const {
+  out.clear();
+  for (int index = 0; index < m * m; ++index) {
+    const int a = index % m, b = index / m;
+    const auto jitter = [&](int axis) {
+      return hashUnit(hashMix(seed, static_cast<std::uint64_t>(y) * 65536u + x,
+                              static_cast<std::uint64_t>(m) * 4096u + index, axis));
+    };
+    out.push_back(sample(camera, pose, x + (a + jitter(0)) / m, y + (b + jitter(1)) / m));
+  }
+}
+
+cv::Mat MeshRenderer::render(const core::PinholeCamera& camera, const Eigen::Isometry3d& world_from_camera,
+                             const RenderConfig& config) const {
+  camera.validate();
+  if (config.samples_per_axis < 1 || config.samples_per_axis > 16) {
+    throw core::Error("renderer: samples_per_axis must be in 1..16, got " + std::to_string(config.samples_per_axis));
+  }
+  const int height = camera.height, n = config.samples_per_axis;
+  cv::Mat image(height, camera.width, CV_32FC4, cv::Scalar(0, 0, 0, 0));
+  const Impl& impl = *impl_;
+  const auto renderRow = [&](int y) {
+    auto* row = image.ptr<cv::Vec4f>(y);
+    std::vector<Sample> samples;
+    for (int x = 0; x < camera.width; ++x) {
+      // Adaptive: a 2x2 pattern first; all n x n samples only where it sees an edge.
+      const bool pattern = config.adaptive && n > 2;
+      if (pattern) impl.stratified(camera, world_from_camera, config.seed, x, y, 2, samples);
+      if (!pattern || straddlesEdge(samples, camera.fx)) {
+        impl.stratified(camera, world_from_camera, config.seed, x, y, n, samples);
+      }
+      row[x] = averagePixel(samples);
+    }
+  };
+  int threads = config.threads > 0 ? config.threads : static_cast<int>(std::thread::hardware_concurrency());
+  forEachRow(height, std::max(1, std::min(threads, height)), renderRow);
   return image;
 }
 

@@ -31,9 +31,9 @@ nerf::NerfModel makeModel() {
   nerf::Box box;  // [0, 1]^3
   nerf::NerfModel model(config, box, 1.0);
   // Features of order 1 and a louder density network: a strongly textured, nearly opaque cloud.
-  for (float& v : model.field().table()) v *= 2e4f;
-  for (float& v : model.field().densityWeights()) v *= 3.0f;
-  model.field().refreshTransposed();
+  for (float& v : model.ngp().table()) v *= 2e4f;
+  for (float& v : model.ngp().densityWeights()) v *= 3.0f;
+  model.ngp().refreshTransposed();
   auto& grid = model.grid();
   std::fill(grid.bits().begin(), grid.bits().end(), 0);
   const int r = grid.resolution();
