@@ -10,20 +10,20 @@ PACKAGES=(
   python3-rostopic python3-rosservice python3-rosnode rosbash
   librosbag-dev libroscpp-dev ros-message-generation ros-std-msgs libstd-msgs-dev
   libsensor-msgs-dev libgeometry-msgs-dev libvisualization-msgs-dev libstd-srvs-dev
-  libtf2-ros-dev libtf2-eigen-dev libtf2-msgs-dev python3-tf2-ros
-  libimage-transport-dev libcv-bridge-dev libdiagnostic-updater-dev
+  libtf2-ros-dev libtf2-eigen-dev libtf2-geometry-msgs-dev libtf2-msgs-dev python3-tf2-ros
+  libimage-transport-dev libcv-bridge-dev libpcl-conversions-dev libdiagnostic-updater-dev
   # roscpp's CMake config links -lboost_chrono without its -dev package depending on it
   libboost-chrono-dev
   rviz
   # dem_node's live settings and interactive push
   libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure libinteractive-markers-dev
   # numerics, learning, geometry, vision
-  libtorch-dev libopenblas0-pthread libeigen3-dev libopencv-dev libcgal-dev
+  libtorch-dev libopenblas0-pthread libeigen3-dev libpcl-dev libopencv-dev libcgal-dev
   libyaml-cpp-dev nlohmann-json3-dev
-  # ParaView export (vtkXMLUnstructuredGridWriter)
+  # ParaView export (vtkXMLUnstructuredGridWriter); libpcl-dev pulls it in too, named here as used
   libvtk9-dev
   # tests and benchmarks
-  libgtest-dev libgmock-dev python3-sensor-msgs
+  libgtest-dev libgmock-dev libbenchmark-dev python3-sensor-msgs
   # scripts/check_install.sh: `catkin build` of a fresh workspace
   catkin-tools
 )
