@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include "demnerf/core/error.hpp"
 #include "extended_unknowns.hpp"
@@ -67,6 +68,68 @@ GridNewtonCache::GridNewtonCache(GridNewtonCache&&) noexcept = default;
 GridNewtonCache& GridNewtonCache::operator=(GridNewtonCache&&) noexcept = default;
 void GridNewtonCache::clear() { state.reset(); }
 
+namespace {
+
+// The current Newton iterate: reduced unknowns r, the full coefficients c = E r, and their energy.
+struct Iterate {
+  Eigen::VectorXd r, c;
+  double energy = 0.0, strain = 0.0, min_J = 0.0;
+};
+
+// The state r, if admissible (finite energy); `iterate` is left as it was otherwise.
+bool moveTo(const GridFieldEnergy& energy, const Unknowns& unknowns, const Eigen::VectorXd& r, Iterate& iterate) {
+  Iterate trial;
+  trial.r = r;
+  trial.c = unknowns.full(r);
+  trial.energy = energy.energy(trial.c, &trial.strain, &trial.min_J);
+  if (!std::isfinite(trial.energy)) return false;
+  iterate = std::move(trial);
+  return true;
+}
+
+// The start from the caller's coefficients, projected onto the extended basis (outer nodes
+// extrapolated). False when neither it nor the grid's share off is admissible.
+bool startingPoint(const GridFieldEnergy& energy, const Unknowns& unknowns, const Eigen::MatrixXd& C, Iterate& iterate) {
+  const auto& active = energy.activeNodes();
+  Eigen::VectorXd c(energy.unknowns());
+  for (std::size_t l = 0; l < active.size(); ++l) c.segment<3>(3 * l) = C.row(active[l]).transpose();
+  const Eigen::VectorXd r = unknowns.reduce(c);
+  if (moveTo(energy, unknowns, r, iterate)) return true;
+  // An inadmissible start (a larger load than the coefficients were solved for): the grid's
+  // share off is admissible whenever u_0 is.
+  if (moveTo(energy, unknowns, Eigen::VectorXd::Zero(r.size()), iterate)) return true;
+  iterate.energy = std::numeric_limits<double>::infinity();
+  return false;
+}
+
+// The linear solver of these unknowns: the cache's when it was made for them, else a new one.
+ShiftedCholesky& linearSolver(GridNewtonCache& cache, const GridFieldEnergy& energy, const Unknowns& unknowns,
+                              const BsplineGrid& grid) {
+  std::vector<long> unknown_nodes = unknownNodes(energy, unknowns);
+  if (!cache.state || cache.state->unknown_nodes != unknown_nodes) {
+    cache.state = std::make_unique<GridNewtonCache::State>();
+    cache.state->unknown_nodes = std::move(unknown_nodes);
+    cache.state->solver.setNodeOrder(eliminationOrder(energy, unknowns, grid));
+  }
+  return cache.state->solver;
+}
+
+// Backtracking (Armijo) along `step`; inverted states have infinite energy and are rejected.
+bool lineSearch(const GridFieldEnergy& energy, const Unknowns& unknowns, const Eigen::VectorXd& step, double decrement,
+                Iterate& iterate) {
+  for (double alpha = 1.0; alpha > 1e-6; alpha *= 0.5) {
+    Iterate trial;
+    if (moveTo(energy, unknowns, iterate.r + alpha * step, trial) &&
+        trial.energy <= iterate.energy - 1e-4 * alpha * decrement) {
+      iterate = std::move(trial);
+      return true;
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
 GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const HyperelasticMaterial& material,
                                     const BsplineGrid& grid, Eigen::MatrixXd& C, const GridNewtonConfig& config) {
   if (C.rows() != grid.nodeCount() || C.cols() != 3)
@@ -75,53 +138,33 @@ GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const Hyper
   const auto& active = energy.activeNodes();
   const Unknowns unknowns(problem, grid, active, config.extension_fill);
   energy.setUnknownMap(unknowns.nodeMap());
-  Eigen::VectorXd c(energy.unknowns());
-  for (std::size_t l = 0; l < active.size(); ++l) c.segment<3>(3 * l) = C.row(active[l]).transpose();
-  // With the extension the start is projected onto the extended basis (outer nodes extrapolated).
-  Eigen::VectorXd r = unknowns.reduce(c);
-  c = unknowns.full(r);
   GridNewtonOutcome out;
-  double strain = 0.0;
-  double current = energy.energy(c, &strain, &out.min_J);
-  if (!std::isfinite(current)) {
-    // An inadmissible start (a larger load than the coefficients were solved for): the grid's
-    // share off is admissible whenever u_0 is.
-    r.setZero();
-    c.setZero();
-    current = energy.energy(c, &strain, &out.min_J);
-    if (!std::isfinite(current)) {
-      out.energy = current;
-      return out;
-    }
+  Iterate x;
+  if (!startingPoint(energy, unknowns, C, x)) {
+    out.energy = x.energy;
+    return out;
   }
-  Eigen::VectorXd gradient;
-  Eigen::SparseMatrix<double> hessian;
   GridNewtonCache local;
-  GridNewtonCache& cache = config.cache ? *config.cache : local;
-  std::vector<long> unknown_nodes = unknownNodes(energy, unknowns);
-  if (!cache.state || cache.state->unknown_nodes != unknown_nodes) {
-    cache.state = std::make_unique<GridNewtonCache::State>();
-    cache.state->unknown_nodes = std::move(unknown_nodes);
-    cache.state->solver.setNodeOrder(eliminationOrder(energy, unknowns, grid));
-  }
-  ShiftedCholesky& solver = cache.state->solver;
+  ShiftedCholesky& solver = linearSolver(config.cache ? *config.cache : local, energy, unknowns, grid);
   const auto store = [&] {
-    for (std::size_t l = 0; l < active.size(); ++l) C.row(active[l]) = c.segment<3>(3 * l).transpose();
+    for (std::size_t l = 0; l < active.size(); ++l) C.row(active[l]) = x.c.segment<3>(3 * l).transpose();
   };
   // The load the residual is measured against: the external forces, or (a prescribed displacement
   // alone) the internal forces of the start.
   double load = energy.externalNorm();
   int rounding_steps = 0;
+  Eigen::VectorXd gradient;
+  Eigen::SparseMatrix<double> hessian;
   for (int it = 0;; ++it) {
     auto start = std::chrono::steady_clock::now();
-    energy.derivatives(c, gradient, hessian);
+    energy.derivatives(x.c, gradient, hessian);
     gradient = unknowns.projectGradient(gradient);
     out.assembly_seconds += secondsSince(start);
     if (it == 0) load = std::max(load, gradient.norm());
     out.residual = load > 0 ? gradient.norm() / load : 0.0;
     if (config.on_iteration) {
       try {
-        config.on_iteration(it, current, out.residual);
+        config.on_iteration(it, x.energy, out.residual);
       } catch (...) {
         store();
         throw;
@@ -137,47 +180,25 @@ GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const Hyper
     out.factorisation_seconds += secondsSince(start);
     const double decrement = -gradient.dot(step);
     if (!(decrement > 0) || !std::isfinite(decrement)) break;
+    ++out.iterations;
     // Near the minimum the energy cannot resolve a Newton step (its decrease is below the rounding
     // of the energy): the full step is taken on the residual's word, if it stays admissible.
-    if (decrement <= config.tolerance * std::max(std::abs(current), strain)) {
-      double trial_strain = 0.0, trial_J = 0.0;
-      const Eigen::VectorXd trial = r + step;
-      const Eigen::VectorXd trial_c = unknowns.full(trial);
-      const double e = energy.energy(trial_c, &trial_strain, &trial_J);
-      if (!std::isfinite(e) || ++rounding_steps > 3) break;
-      r = trial;
-      c = trial_c;
-      current = e;
-      strain = trial_strain;
-      out.min_J = trial_J;
-      ++out.iterations;
-      continue;
-    }
-    // Backtracking (Armijo) line search; inverted states have infinite energy and are rejected.
-    bool moved = false;
-    start = std::chrono::steady_clock::now();
-    for (double alpha = 1.0; alpha > 1e-6; alpha *= 0.5) {
-      const Eigen::VectorXd trial = r + alpha * step;
-      const Eigen::VectorXd trial_c = unknowns.full(trial);
-      double trial_strain = 0.0, trial_J = 0.0;
-      const double e = energy.energy(trial_c, &trial_strain, &trial_J);
-      if (std::isfinite(e) && e <= current - 1e-4 * alpha * decrement) {
-        r = trial;
-        c = trial_c;
-        current = e;
-        strain = trial_strain;
-        out.min_J = trial_J;
-        moved = true;
+    if (decrement <= config.tolerance * std::max(std::abs(x.energy), x.strain)) {
+      if (++rounding_steps > 3 || !moveTo(energy, unknowns, x.r + step, x)) {
+        --out.iterations;
         break;
       }
+      continue;
     }
+    start = std::chrono::steady_clock::now();
+    const bool moved = lineSearch(energy, unknowns, step, decrement, x);
     out.line_search_seconds += secondsSince(start);
-    ++out.iterations;
     if (!moved) break;
   }
   store();
-  out.energy = current;
-  out.strain_energy = strain;
+  out.energy = x.energy;
+  out.strain_energy = x.strain;
+  out.min_J = x.min_J;
   return out;
 }
 
