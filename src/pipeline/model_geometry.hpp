@@ -4,6 +4,7 @@
 
 #include "demnerf/core/ply.hpp"
 #include "demnerf/geometry/mesh_from_density.hpp"
+#include "demnerf/geometry/particle_sampler.hpp"
 
 /// The surface the pipeline extracts unless told otherwise: where the body reaches opacity 0.15
 /// seen from outside, on 192 cubic cells along the longest side (the T-bar: ~1 % volume error).
@@ -21,5 +22,13 @@ demnerf::geometry::MeshExtractionResult extractSurface(const demnerf::nerf::Nerf
 /// Colours each particle with the NeRF's radiance, seen from outside along its normal
 /// (interior particles: from above).
 void colourFromModel(const demnerf::nerf::NerfModel& model, demnerf::core::ParticleCloud* cloud);
+
+/// The model's surface (extractSurface) filled with coloured particles. A sampling spacing <= 0
+/// means 1/40 of the mesh's bounding-box diagonal (a few thousand particles for any body size).
+/// The mesh is handed back through mesh_out when given (nerf_node draws it).
+demnerf::core::ParticleCloud particlesFromModel(const demnerf::nerf::NerfModel& model, int resolution,
+                                                const demnerf::geometry::MeshExtractionConfig& extraction,
+                                                demnerf::geometry::SamplerConfig sampling,
+                                                demnerf::core::TriangleMesh* mesh_out = nullptr);
 
 }  // namespace dem_nerf
