@@ -1,5 +1,6 @@
 #include "nodes/dem/dem_node.hpp"
 
+#include <dem_nerf/TrainingStatus.h>
 #include <tf2_eigen/tf2_eigen.h>
 
 #include <cmath>
