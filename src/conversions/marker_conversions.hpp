@@ -7,7 +7,7 @@
 
 #include <string>
 
-#include "demnerf/core/ply.hpp"
+#include "demnerf/core/particle_cloud.hpp"
 #include "demnerf/core/scenario.hpp"
 
 namespace dem_nerf {

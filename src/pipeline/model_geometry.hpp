@@ -2,7 +2,7 @@
 // From a trained NeRF to the simulation's inputs: its density on a grid, its surface mesh, and
 // particle colours from its radiance. Shared by nerf_node and the demnerf CLI.
 
-#include "demnerf/core/ply.hpp"
+#include "demnerf/core/particle_cloud.hpp"
 #include "demnerf/geometry/mesh_from_density.hpp"
 #include "demnerf/geometry/particle_sampler.hpp"
 
