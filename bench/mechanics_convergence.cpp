@@ -137,26 +137,26 @@ int main(int argc, char** argv) {
   }
 
   dm::DemConfig base;
-  base.width = static_cast<int>(num("width", which == "tbar" ? 32 : 16));
-  base.depth = static_cast<int>(num("depth", which == "tbar" ? 3 : 2));
-  base.adam_iterations = iters;
-  base.grid_spacings = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
-  base.grid_body_cells = 0.0;
+  base.network.width = static_cast<int>(num("width", which == "tbar" ? 32 : 16));
+  base.network.depth = static_cast<int>(num("depth", which == "tbar" ? 3 : 2));
+  base.adam.iterations = iters;
+  base.grid.spacings = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
+  base.grid.body_cells = 0.0;
   scenario.load_steps = 1;
   std::vector<Variant> variants;
   variants.push_back({"Adam", base, cv::Scalar(200, 60, 0), {}});
   dm::DemConfig polish = base;
-  polish.adam_iterations = std::min(100, iters);
-  polish.lbfgs_iterations = iters;
+  polish.adam.iterations = std::min(100, iters);
+  polish.lbfgs.iterations = iters;
   variants.push_back({"Adam 100 + L-BFGS", polish, cv::Scalar(0, 150, 0), {}});
   dm::DemConfig newton = base;
-  newton.output_newton = true;
-  newton.adam_iterations = 0;
+  newton.output_newton.enabled = true;
+  newton.adam.iterations = 0;
   variants.push_back({"output-layer Newton", newton, cv::Scalar(0, 0, 0), {}});
   dm::DemConfig newton_adam = base;
-  newton_adam.output_newton = true;
-  newton_adam.newton_every = 50;
-  newton_adam.adam_learning_rate = 1e-4;
+  newton_adam.output_newton.enabled = true;
+  newton_adam.output_newton.every = 50;
+  newton_adam.adam.learning_rate = 1e-4;
   variants.push_back({"Newton + Adam 1e-4", newton_adam, cv::Scalar(160, 0, 160), {}});
 
   std::ofstream csv(out + ".csv");
@@ -179,10 +179,10 @@ int main(int argc, char** argv) {
       const dm::DemReport r = dem.solve();
       record(r.iterations);
       std::printf("| %s | %s | %zu | %dx%d | %d | %.2f | %.4f |\n", which.c_str(), v.name.c_str(), cloud.size(),
-                  v.config.width, v.config.depth, r.iterations, v.curve.back().seconds, v.curve.back().error);
+                  v.config.network.width, v.config.network.depth, r.iterations, v.curve.back().seconds, v.curve.back().error);
     } catch (const std::exception& e) {
       std::printf("| %s | %s | %zu | %dx%d | - | - | failed: %s |\n", which.c_str(), v.name.c_str(), cloud.size(),
-                  v.config.width, v.config.depth, e.what());
+                  v.config.network.width, v.config.network.depth, e.what());
     }
   }
   plot(variants, out + ".png", "DEM rel. L2 error vs training seconds, " + which + " (" +

@@ -78,8 +78,8 @@ void demOnCook() {
   // particles hardly see (and fails); 2 and 3 mm are integrated well.
   for (const double cell : {0.003, 0.002}) {
     dm::DemConfig config;
-    config.adam_iterations = 0;
-    config.grid_cell = cell;
+    config.adam.iterations = 0;
+    config.grid.cell = cell;
     dm::DemSolver dem(cloud, dm::cookMembraneScenario(), config);
     const dm::DemReport r = dem.solve();
     const double uy = dem.predict({dm::cookMembraneTip()})[0].y();

@@ -52,36 +52,36 @@ int main(int argc, char** argv) {
   const std::string which = a.count("case") ? a["case"] : "tbar";
   dm::DemConfig config;
   // The MLP alone unless grid= or grid_spacings= asks for the feature grid (DemConfig's default).
-  config.adam_iterations = static_cast<int>(num("iters", 1500));
-  config.grid_spacings = num("grid_spacings", 0.0);
-  config.grid_body_cells = num("grid_body_cells", 0.0);
-  config.adam_learning_rate = num("lr", config.adam_learning_rate);
-  config.adam_final_rate_ratio = num("final", config.adam_final_rate_ratio);
-  config.lbfgs_iterations = static_cast<int>(num("lbfgs", 0));
-  config.width = static_cast<int>(num("width", config.width));
-  config.depth = static_cast<int>(num("depth", config.depth));
+  config.adam.iterations = static_cast<int>(num("iters", 1500));
+  config.grid.spacings = num("grid_spacings", 0.0);
+  config.grid.body_cells = num("grid_body_cells", 0.0);
+  config.adam.learning_rate = num("lr", config.adam.learning_rate);
+  config.adam.final_rate_ratio = num("final", config.adam.final_rate_ratio);
+  config.lbfgs.iterations = static_cast<int>(num("lbfgs", 0));
+  config.network.width = static_cast<int>(num("width", config.network.width));
+  config.network.depth = static_cast<int>(num("depth", config.network.depth));
   config.threads = static_cast<int>(num("threads", 0));
-  config.jitter = num("jitter", 1) != 0;
-  config.jitter_band = num("band", config.jitter_band);
-  config.double_precision = num("double", 0) != 0;
+  config.adam.jitter = num("jitter", 1) != 0;
+  config.adam.jitter_band = num("band", config.adam.jitter_band);
+  config.network.double_precision = num("double", 0) != 0;
   config.verbose = num("verbose", 0) != 0;
-  config.rescale_every = static_cast<int>(num("rescale", config.rescale_every));
-  config.polish_max_energy_drop = num("drop", config.polish_max_energy_drop);
-  config.polish_max_growth = num("growth", config.polish_max_growth);
-  config.lbfgs_history = static_cast<int>(num("history", config.lbfgs_history));
-  config.output_newton = num("newton", config.output_newton ? 1 : 0) != 0;
-  config.newton_every = static_cast<int>(num("newton_every", config.newton_every));
-  config.newton_iterations = static_cast<int>(num("newton_its", config.newton_iterations));
-  config.grid_cell = num("grid", config.grid_cell);
-  config.grid_degree = static_cast<int>(num("grid_degree", config.grid_degree));
-  config.grid_refine_band = num("grid_band", config.grid_refine_band);
+  config.adam.rescale_every = static_cast<int>(num("rescale", config.adam.rescale_every));
+  config.lbfgs.max_energy_drop = num("drop", config.lbfgs.max_energy_drop);
+  config.lbfgs.max_growth = num("growth", config.lbfgs.max_growth);
+  config.lbfgs.history = static_cast<int>(num("history", config.lbfgs.history));
+  config.output_newton.enabled = num("newton", config.output_newton.enabled ? 1 : 0) != 0;
+  config.output_newton.every = static_cast<int>(num("newton_every", config.output_newton.every));
+  config.output_newton.iterations = static_cast<int>(num("newton_its", config.output_newton.iterations));
+  config.grid.cell = num("grid", config.grid.cell);
+  config.grid.degree = static_cast<int>(num("grid_degree", config.grid.degree));
+  config.grid.refine_band = num("grid_band", config.grid.refine_band);
   // quadrature=particles extension=0: the earlier default grid (the README's lattice T-bar rows).
   if (a.count("quadrature") && a["quadrature"] == "particles")
-    config.grid_quadrature = dm::DemConfig::GridQuadrature::kParticles;
-  config.grid_extension_fill = num("extension", config.grid_extension_fill);
+    config.grid.quadrature = dm::DemConfig::GridQuadrature::kParticles;
+  config.grid.extension_fill = num("extension", config.grid.extension_fill);
   config.load_steps = static_cast<int>(num("dem_steps", config.load_steps));
-  if (a.count("activation")) config.activation = a["activation"];
-  if (a.count("boundary") && a["boundary"] == "penalty") config.boundary = dm::DemConfig::Boundary::kPenalty;
+  if (a.count("activation")) config.network.activation = a["activation"];
+  if (a.count("boundary") && a["boundary"] == "penalty") config.boundary.kind = dm::DemConfig::Boundary::kPenalty;
   const int seeds = static_cast<int>(num("seeds", 3));
 
   core::Scenario scenario;
@@ -149,7 +149,7 @@ int main(int argc, char** argv) {
   std::vector<double> seconds, errors, predict_ms;
   std::printf("| case | particles | net | Adam its x steps | L-BFGS | seed | time (s) | rel L2 | max err / max |u| | energy (J) | out scale |\n");
   for (int seed = 1; seed <= seeds; ++seed) {
-    config.seed = seed;
+    config.network.seed = seed;
     dm::DemSolver dem(cloud, scenario, config);
     const dm::DemReport r = dem.solve();
     const auto u = dem.predict(cloud.positions);
@@ -161,8 +161,8 @@ int main(int argc, char** argv) {
     seconds.push_back(r.seconds);
     errors.push_back(std::sqrt(e / ref_norm));
     std::printf("| %s | %zu | %dx%d %s | %d x %d | %d%s | %d | %.2f | %.4f | %.4f | %.6g | %.3g |\n", which.c_str(),
-                cloud.size(), config.width, config.depth, config.double_precision ? "f64" : "f32", config.adam_iterations,
-                r.load_steps, config.lbfgs_iterations, r.polish_rejected ? " (rejected)" : "", seed, r.seconds,
+                cloud.size(), config.network.width, config.network.depth, config.network.double_precision ? "f64" : "f32", config.adam.iterations,
+                r.load_steps, config.lbfgs.iterations, r.polish_rejected ? " (rejected)" : "", seed, r.seconds,
                 errors.back(), emax / ref_max, r.energy, r.output_scale);
     // Prediction time for 10k random points inside the body (median of 3).
     std::mt19937 rng(seed);

@@ -128,28 +128,28 @@ dm::SimulateOptions solverOptions(const std::string& solver, const Settings& s, 
     // DemConfig's defaults, as `demnerf simulate` runs them: the body-sized grid, cell
     // quadrature, extended B-splines, Newton only.
   } else if (solver == "dem_particles") {
-    o.dem.grid_spacings = 2;  // the earlier default: cells of 2 particle spacings, particle quadrature
-    o.dem.grid_body_cells = 0;
-    o.dem.grid_quadrature = dm::DemConfig::GridQuadrature::kParticles;
-    o.dem.grid_extension_fill = 0;
-    o.dem.grid_cell = 0;
-    o.dem.adam_iterations = 0;
+    o.dem.grid.spacings = 2;  // the earlier default: cells of 2 particle spacings, particle quadrature
+    o.dem.grid.body_cells = 0;
+    o.dem.grid.quadrature = dm::DemConfig::GridQuadrature::kParticles;
+    o.dem.grid.extension_fill = 0;
+    o.dem.grid.cell = 0;
+    o.dem.adam.iterations = 0;
   } else if (solver == "dem_cells" || solver == "dem_ext") {
     // The sampler-independent quadrature (Gauss points in the cells inside the body), without and
     // with extended B-splines; grid_spacings= and ext_fill= set the grid and the fill threshold.
-    o.dem.grid_spacings = s.body_cells > 0 ? 0.0 : s.grid_spacings;
-    o.dem.grid_body_cells = s.body_cells;
-    o.dem.grid_cell = 0;
-    o.dem.adam_iterations = 0;
-    o.dem.grid_quadrature = dm::DemConfig::GridQuadrature::kCells;
-    o.dem.grid_boundary_levels = s.boundary_levels;
-    o.dem.grid_extension_fill = solver == "dem_ext" ? s.extension_fill : 0.0;
+    o.dem.grid.spacings = s.body_cells > 0 ? 0.0 : s.grid_spacings;
+    o.dem.grid.body_cells = s.body_cells;
+    o.dem.grid.cell = 0;
+    o.dem.adam.iterations = 0;
+    o.dem.grid.quadrature = dm::DemConfig::GridQuadrature::kCells;
+    o.dem.grid.boundary_levels = s.boundary_levels;
+    o.dem.grid.extension_fill = solver == "dem_ext" ? s.extension_fill : 0.0;
   } else if (solver == "dem_mlp" || solver == "dem_mlp_exact") {
-    o.dem.grid_spacings = 0;  // the paper's DEM: the MLP alone, trained by Adam
-    o.dem.grid_body_cells = 0;
-    o.dem.grid_cell = 0;
-    o.dem.adam_iterations = s.mlp_iters;
-    o.dem.boundary = solver == "dem_mlp" ? dm::DemConfig::Boundary::kPenalty : dm::DemConfig::Boundary::kExact;
+    o.dem.grid.spacings = 0;  // the paper's DEM: the MLP alone, trained by Adam
+    o.dem.grid.body_cells = 0;
+    o.dem.grid.cell = 0;
+    o.dem.adam.iterations = s.mlp_iters;
+    o.dem.boundary.kind = solver == "dem_mlp" ? dm::DemConfig::Boundary::kPenalty : dm::DemConfig::Boundary::kExact;
   } else {
     throw core::Error("unknown solver column '" + solver + "': use fem, dem, dem_particles, dem_cells, dem_ext, dem_mlp or dem_mlp_exact");
   }

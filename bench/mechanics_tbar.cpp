@@ -80,10 +80,10 @@ int main(int argc, char** argv) {
   std::vector<double> dem_seconds, dem_errors, predict_ms;
   for (int seed = 1; seed <= 3; ++seed) {
     dm::DemConfig config;
-    config.adam_iterations = dem_iterations;
-    config.grid_spacings = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
-    config.grid_body_cells = 0.0;
-    config.seed = seed;
+    config.adam.iterations = dem_iterations;
+    config.grid.spacings = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
+    config.grid.body_cells = 0.0;
+    config.network.seed = seed;
     dm::DemSolver dem(cloud, scenario, config);
     const dm::DemReport r = dem.solve();
     dem_seconds.push_back(r.seconds);

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# `make demo`: the main job on the bundled default (the T-bar), or on DATA=<dataset folder>.
+# `make demo`: the main job on the bundled default (the T-bar), or on DATA=<dataset folder>
+# (a real capture: with BOX=... or a <scenario>.box file naming the object's box, see README).
 # Every stage's figures go to output/demo/<stage>.log (last line JSON) and into report.md.
 set -uo pipefail
 BUILD_DIR=${1:-build}
@@ -14,6 +15,15 @@ OUT="$ROOT/output/demo"
 CLI="$BUILD_DIR/bin/demnerf"
 SCENARIO=${SCENARIO:-config/scenarios/tbar_twist.yaml}
 [[ $SCENARIO = /* ]] || SCENARIO="$ROOT/$SCENARIO"
+# A real capture (DATA=...) holds more than the object: the box around it, in the scene's frame,
+# is BOX=xmin,ymin,zmin,xmax,ymax,zmax or the scenario's sidecar file <scenario>.box (one line).
+BOX=${BOX:-}
+[ -n "$BOX" ] || [ ! -f "${SCENARIO%.yaml}.box" ] || BOX=$(grep -v '^#' "${SCENARIO%.yaml}.box" | head -n 1 | tr -d ' ')
+CAPTURE_SECONDS=${CAPTURE_SECONDS:-300}   # NeRF training on a real capture (2 cores: 120-300 s)
+CAPTURE_DOWNSCALE=${CAPTURE_DOWNSCALE:-4}  # the fox's 1080 x 1920 photos at 1/4
+CAPTURE_SPACING=${CAPTURE_SPACING:-0.05}   # particle spacing in the scene's units (fox: ~1.5 across)
+CAPTURE_SURFACE=${CAPTURE_SURFACE:-"--surface density --threshold 20"}  # fog-free on the fox; see README
+# CAPTURE_MODEL=<model.nerf>: skip training and use a model trained before on the same capture.
 mkdir -p "$OUT"
 REPORT="$OUT/report.md"
 printf '# dem_nerf demo\n\n| stage | figures |\n| --- | --- |\n' > "$REPORT"
@@ -43,7 +53,8 @@ if [ -z "$DATA" ]; then
   [ -f "$DATA/transforms_train.json" ] || stage synth "$CLI" synth --scene tbar --out "$DATA"
 fi
 stage info "$CLI" info --data "$DATA"
-stage bag "$CLI" bag --data "$DATA" --out "$OUT/dataset.bag"
+# The bag feeds the ROS run only; a capture with a box goes through the CLI (capture_run below).
+[ -n "$BOX" ] || stage bag "$CLI" bag --data "$DATA" --out "$OUT/dataset.bag"
 # The ROS run, as on a rig: the bag replays the cameras into nerf_node, which trains for
 # TRAIN_SECONDS, extracts the body and publishes particles; dem_node solves the scenario's twist on
 # them; demo_recorder keeps both clouds as files and ends the launch.
@@ -69,15 +80,39 @@ ros_run() {
   printf '| ros | failed: see ros.log |\n' >> "$REPORT"
   return 1
 }
-ros_run || FAILED_STAGES+=(ros)
-stage eval "$CLI" eval --model "$OUT/model.nerf" --data "$DATA" --split test
+# A real capture with a box: the same job as the ROS run, stage by stage through the CLI, since
+# the object is cut out of the scene by the box (demnerf extract --box) before sampling.
+capture_run() {
+  local nerf_config="$ROOT/packages/nerf/config/nerf_fox.yaml"
+  [ -n "${CAPTURE_CONFIG:-}" ] && nerf_config=$CAPTURE_CONFIG
+  if [ -n "${CAPTURE_MODEL:-}" ]; then  # a model trained earlier on the same capture: reused as is
+    cp "$CAPTURE_MODEL" "$OUT/model.nerf" || return 1
+  else
+    stage train "$CLI" train --data "$DATA" --out "$OUT/model.nerf" --seconds "$CAPTURE_SECONDS" \
+      --downscale "$CAPTURE_DOWNSCALE" --config "$nerf_config" || return 1
+  fi
+  stage extract "$CLI" extract --model "$OUT/model.nerf" --mesh "$OUT/mesh.ply" --box="$BOX" --resolution 128 $CAPTURE_SURFACE \
+    || return 1
+  stage sample "$CLI" sample --mesh "$OUT/mesh.ply" --spacing "$CAPTURE_SPACING" --out "$OUT/particles.ply" || return 1
+  stage simulate "$CLI" simulate --particles "$OUT/particles.ply" --scenario "$SCENARIO" --solver "$SOLVER" \
+    --out "$OUT/displaced.ply"
+}
+if [ -n "$BOX" ]; then
+  rm -f "$OUT/model.nerf" "$OUT/mesh.ply" "$OUT/particles.ply" "$OUT/displaced.ply"
+  capture_run || FAILED_STAGES+=(capture)
+else
+  ros_run || FAILED_STAGES+=(ros)
+fi
+SCALE=()  # a capture is evaluated and rendered at the resolution it was trained at
+[ -z "$BOX" ] || SCALE=(--downscale "$CAPTURE_DOWNSCALE")
+stage eval "$CLI" eval --model "$OUT/model.nerf" --data "$DATA" --split test "${SCALE[@]}"
 TRUTH=()
 if $BUNDLED && [ -f "$OUT/displaced.ply" ]; then
   # Ground truth: the exact T-bar moved by the same displacement, from the same cameras.
   stage truth "$CLI" synth --scene tbar --out "$OUT/truth" --result "$OUT/displaced.ply" && TRUTH=(--truth "$OUT/truth")
 fi
 stage render "$CLI" render --model "$OUT/model.nerf" --data "$DATA" --split test --out "$OUT/rendered" \
-  --result "$OUT/displaced.ply" "${TRUTH[@]}"
+  --result "$OUT/displaced.ply" "${TRUTH[@]}" "${SCALE[@]}"
 echo "demo outputs are in $OUT (report: $REPORT)"
 if [ ${#FAILED_STAGES[@]} -gt 0 ]; then
   echo "demo: these stages failed: ${FAILED_STAGES[*]} (their .err files in $OUT say why)" >&2

@@ -27,7 +27,7 @@ TEST(LiveValues, StartFromTheScenarioMaterialAndTheNodesOptions) {
   EXPECT_EQ(values.youngs_modulus, 2e5);
   EXPECT_EQ(values.poisson_ratio, 0.25);
   EXPECT_EQ(values.solver, "dem");
-  EXPECT_EQ(values.dem_grid_spacings, dm::DemConfig{}.grid_spacings);
+  EXPECT_EQ(values.dem_grid_spacings, dm::DemConfig{}.grid.spacings);
   EXPECT_EQ(values.fem_order, dm::VoxelMeshConfig{}.order);
   EXPECT_EQ(values.solve_time_limit, dm::SolveControl{}.time_limit);
   EXPECT_EQ(values.load_scale, 1.0);
@@ -49,7 +49,7 @@ TEST(LiveValues, AValidChangeIsTakenAndANewMaterialNeedsANewModel) {
   values.dem_grid_spacings = 3.0;
   const LiveSolveSettings softer = dem_nerf::withLiveValues(scaled, values);
   EXPECT_EQ(softer.youngs_modulus, 1e5);
-  EXPECT_EQ(softer.options.dem.grid_spacings, 3.0);
+  EXPECT_EQ(softer.options.dem.grid.spacings, 3.0);
   EXPECT_GT(softer.model_generation, scaled.model_generation);
 }
 
@@ -72,7 +72,7 @@ TEST(LiveValues, InvalidValuesAreRefusedByName) {
   refused([](LiveValues& v) { v.fem_order = 3; }, "fem_order");
   refused([](LiveValues& v) { v.solve_time_limit = -1.0; }, "solve_time_limit");
   LiveSolveSettings parametric = before;
-  parametric.options.dem.parametric = true;
+  parametric.options.dem.parametric.enabled = true;
   LiveValues values = dem_nerf::liveValuesOf(parametric);
   values.dem_grid_spacings += 1.0;
   EXPECT_THROW(dem_nerf::withLiveValues(parametric, values), demnerf::core::Error);

@@ -1,9 +1,10 @@
 // `demnerf sample`: a particle cloud (volumes, surface normals and areas) inside a closed mesh,
 // by the paper's random, Poisson-disk or uniform-grid sampling (packages/geometry).
 
-#include <chrono>
-
 #include <algorithm>
+#include <chrono>
+#include <sstream>
+#include <string>
 
 #include "command.hpp"
 #include "commands.hpp"
@@ -22,10 +23,10 @@ Figures runSample(const Arguments& arguments) {
                            "surface-volumes", "json", "quiet"});
   if (arguments.has("mesh") == arguments.has("model")) throw UsageError("give either --mesh or --model");
   const std::string out_path = arguments.text("out");
-  geometry::SamplerConfig config;
-  config.method = geometry::parseSamplingMethod(arguments.text("method", "poisson"));
+  geometry::SamplerConfig config;  // its method and seed are the defaults, as nerf_node's
+  config.method = geometry::parseSamplingMethod(arguments.text("method", geometry::samplingMethodName(config.method)));
   config.spacing = arguments.number("spacing");
-  const int seed = arguments.integer("seed", 1);
+  const int seed = arguments.integer("seed", static_cast<int>(config.seed));
   if (seed < 0) throw UsageError("option --seed expects a non-negative integer, got " + std::to_string(seed));
   config.seed = static_cast<std::uint64_t>(seed);
   const std::string weights = arguments.text("weights", "voronoi");
@@ -47,16 +48,17 @@ Figures runSample(const Arguments& arguments) {
   } else {
     const nerf::NerfModel model = nerf::loadModel(arguments.text("model"));
     geometry::MeshExtractionConfig extraction;
-    // As `demnerf extract`: the surface as rendered (opacity 0.15) unless --threshold asks for a
+    // As `demnerf extract` and nerf_node: the surface as rendered unless --threshold asks for a
     // density iso-surface.
+    const dem_nerf::SurfaceDefaults defaults;
     const std::string surface = arguments.text("surface", arguments.has("threshold") ? "density" : "opacity");
     if (surface != "density" && surface != "opacity") {
       throw UsageError("option --surface expects density or opacity, got '" + surface + "'");
     }
     extraction.surface = geometry::parseSurfaceDefinition(surface);
-    extraction.opacity = arguments.number("opacity", 0.15);
+    extraction.opacity = arguments.number("opacity", defaults.opacity);
     extraction.threshold = arguments.number("threshold", extraction.threshold);
-    mesh = dem_nerf::extractSurface(model, arguments.integer("resolution", 256), extraction).mesh;
+    mesh = dem_nerf::extractSurface(model, arguments.integer("resolution", defaults.resolution), extraction).mesh;
     cloud = geometry::sampleParticles(mesh, config, &report);
     dem_nerf::colourFromModel(model, &cloud);
   }
@@ -74,9 +76,17 @@ Figures runSample(const Arguments& arguments) {
 
 const Command kSampleCommand = {
     "sample", "particles inside a closed mesh",
-    "(--mesh M.ply|M.obj | --model MODEL [--resolution 256] [--surface opacity|density] [--opacity 0.15] [--threshold 2.5]) --method random|poisson|grid "
-    "--spacing H --out P.ply [--seed 1] "
-    "[--weights voronoi|uniform] [--surface-volumes false] [--json]",
+    [] {
+      // The extraction defaults printed are the ones that run (dem_nerf::SurfaceDefaults).
+      std::ostringstream opacity;
+      opacity << dem_nerf::SurfaceDefaults{}.opacity;
+      static const std::string text =
+          "(--mesh M.ply|M.obj | --model MODEL [--resolution " + std::to_string(dem_nerf::SurfaceDefaults{}.resolution) +
+          "] [--surface opacity|density] [--opacity " + opacity.str() +
+          "] [--threshold 2.5]) --method random|poisson|grid --spacing H --out P.ply [--seed 1] "
+          "[--weights voronoi|uniform] [--surface-volumes false] [--json]";
+      return text.c_str();
+    }(),
     runSample};
 
 }  // namespace demnerf::cli

@@ -5,14 +5,13 @@
 
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <sstream>
-#include <tuple>
 
 #include "command.hpp"
 #include "commands.hpp"
+#include "simulate_settings.hpp"
 #include "demnerf/core/ply.hpp"
 #include "demnerf/core/scenario.hpp"
 #include "demnerf/mechanics/simulate.hpp"
@@ -36,96 +35,12 @@ void printProgress(const mechanics::SolveProgress& p) {
                p.solver.c_str(), p.phase.c_str(), p.load_fraction, p.iteration, p.energy, residual, p.elapsed);
 }
 
-/// --load-range MIN,MAX as two numbers.
-std::pair<double, double> loadRange(const std::string& range) {
-  const auto comma = range.find(',');
-  char* end = nullptr;
-  const double lo = std::strtod(range.c_str(), &end);
-  const double hi = comma == std::string::npos ? 0.0 : std::strtod(range.c_str() + comma + 1, nullptr);
-  if (comma == std::string::npos || end != range.c_str() + comma || !(lo < hi))
-    throw UsageError("option --load-range expects MIN,MAX load fractions with MIN < MAX (e.g. 0,1.5), got '" + range + "'");
-  return {lo, hi};
-}
-
-/// The DEM settings of the flags over `dem` (the method's preset with the config file over it).
-void applyDemFlags(const Arguments& arguments, mechanics::DemConfig& dem) {
-  dem.width = arguments.integer("width", dem.width);
-  dem.depth = arguments.integer("depth", dem.depth);
-  dem.threads = arguments.integer("threads", dem.threads);
-  if (arguments.flag("newton")) dem.output_newton = true;
-  mechanics::DemGridChoice grid;
-  if (arguments.has("iterations")) grid.adam_iterations = arguments.integer("iterations", dem.adam_iterations);
-  if (arguments.has("grid-cell")) {
-    grid.cell = arguments.number("grid-cell");
-    if (!(*grid.cell > 0))
-      throw UsageError("option --grid-cell expects the feature grid's cell edge in metres (> 0; about two particle spacings)");
-  }
-  if (arguments.has("grid-spacings")) {
-    grid.spacings = arguments.number("grid-spacings");
-    if (!(*grid.spacings > 0))
-      throw UsageError("option --grid-spacings expects the feature grid's cell in particle spacings (> 0; 2 is a good choice)");
-  }
-  if (arguments.has("grid-body-cells")) {
-    grid.body_cells = arguments.number("grid-body-cells");
-    if (!(*grid.body_cells > 0))
-      throw UsageError("option --grid-body-cells expects how many grid cells the body's volume holds (> 0; 600 suits the T-bar)");
-  }
-  dem = mechanics::withGridChoice(dem, grid);
-  const bool grid_flag = grid.cell || grid.spacings || grid.body_cells;
-  if (arguments.has("boundary")) {
-    const std::string boundary = arguments.text("boundary");
-    if (boundary == "penalty") dem.boundary = mechanics::DemConfig::Boundary::kPenalty;
-    else if (boundary == "exact") dem.boundary = mechanics::DemConfig::Boundary::kExact;
-    else throw UsageError("option --boundary expects exact or penalty, got '" + boundary + "'");
-  }
-  if (arguments.has("load-range")) {
-    if (grid_flag)
-      throw UsageError("option --load-range trains the MLP alone (the feature grid does not take the load): drop "
-                       "--grid-cell / --grid-spacings / --grid-body-cells");
-    std::tie(dem.load_range_min, dem.load_range_max) = loadRange(arguments.text("load-range"));
-    dem.parametric = true;
-  }
-  if (dem.parametric) dem = mechanics::parametricDemConfig(dem);
-  if (dem.output_newton && !dem.parametric && (dem.grid_cell > 0 || dem.grid_spacings > 0 || dem.grid_body_cells > 0))
-    throw UsageError("option --newton solves the MLP's output layer, which the feature grid takes over: use "
-                     "--method mlp --boundary exact --newton");
-}
-
-/// Every setting of a run: the DEM method's preset, the config file, then the flags.
-mechanics::SimulateOptions settings(const Arguments& arguments) {
-  const std::string method = arguments.text("method", "grid");
-  if (method != "grid" && method != "mlp") throw UsageError("option --method expects grid or mlp, got '" + method + "'");
-  mechanics::SimulateOptions options = mechanics::solverDefaults(method, arguments.text("config", ""));
-  applyDemFlags(arguments, options.dem);
-  // The PINN takes the same network, iteration and thread flags (its own defaults when absent).
-  options.pinn.adam_iterations = arguments.integer("iterations", options.pinn.adam_iterations);
-  options.pinn.width = arguments.integer("width", options.pinn.width);
-  options.pinn.depth = arguments.integer("depth", options.pinn.depth);
-  options.pinn.threads = arguments.integer("threads", options.pinn.threads);
-  options.voxel.cell = arguments.number("cell", options.voxel.cell);
-  options.voxel.order = arguments.integer("order", options.voxel.order);
-  if (options.voxel.order != 1 && options.voxel.order != 2)
-    throw UsageError("option --order expects 1 (TET4) or 2 (TET10), got " + std::to_string(options.voxel.order));
-  if (options.voxel.cell < 0) throw UsageError("option --cell expects a positive length in metres (0: automatic)");
-  // How --mesh is meshed for the FEM: CGAL tetrahedra that follow the surface, or voxels.
-  if (arguments.has("mesher")) {
-    const std::string mesher = arguments.text("mesher");
-    if (mesher == "voxel") options.mesher = mechanics::SimulateOptions::Mesher::kVoxel;
-    else if (mesher == "cgal") options.mesher = mechanics::SimulateOptions::Mesher::kCgal;
-    else throw UsageError("option --mesher expects cgal or voxel, got '" + mesher + "'");
-  }
-  options.control.time_limit = arguments.number("time-limit", options.control.time_limit);
-  if (options.control.time_limit < 0)
-    throw UsageError("option --time-limit expects seconds >= 0 (0: no limit), got " + arguments.text("time-limit"));
-  return options;
-}
-
 Figures runSimulate(const Arguments& arguments) {
   arguments.rejectUnknown({"particles", "scenario", "solver", "mesh", "out", "cell", "order", "iterations", "width",
                            "depth", "boundary", "threads", "json", "quiet", "save-model", "load-range", "newton",
                            "grid-cell", "grid-spacings", "grid-body-cells", "mesher", "method", "config", "time-limit", "print-config",
                            "vtu"});
-  mechanics::SimulateOptions options = settings(arguments);
+  mechanics::SimulateOptions options = simulateSettings(arguments);
   if (arguments.flag("print-config")) {
     std::cout << "# demnerf solver settings (demnerf simulate --config FILE, dem_node ~solver_config): every key\n"
                  "# with its value and meaning. Keys left out keep their defaults; unknown keys are errors.\n"
@@ -217,22 +132,22 @@ const char* usage() {
          "                         integrated in its cells, solved by Newton; mlp: the paper's DEM, the MLP\n"
          "                         alone trained by Adam\n"
          "                         ("
-      << mlp.adam_iterations << " steps per load step) with the penalty boundary\n"
+      << mlp.adam.iterations << " steps per load step) with the penalty boundary\n"
          "  --grid-body-cells N    default "
-      << number(d.dem.grid_body_cells)
+      << number(d.dem.grid.body_cells)
       << ": cell = (V / N)^(1/3) from the body's volume (never finer than the particles)\n"
          "  --grid-spacings S      default "
-      << number(d.dem.grid_spacings)
+      << number(d.dem.grid.spacings)
       << " (off): cell in particle spacings instead (below 1.5 is refused with the particle\n"
-         "                         quadrature, grid_quadrature: particles in --config; docs/dem_feature_grid.md)\n"
+         "                         quadrature, grid: {quadrature: particles} in --config; docs/dem_feature_grid.md)\n"
          "  --grid-cell H          default "
-      << number(d.dem.grid_cell)
+      << number(d.dem.grid.cell)
       << " (off): cell edge in m; takes precedence over both; any grid flag sets Adam to 0\n"
          "  --iterations N         Adam iterations per load step (default: grid "
-      << d.dem.adam_iterations << ", mlp " << mlp.adam_iterations << ", PINN " << d.pinn.adam_iterations
+      << d.dem.adam.iterations << ", mlp " << mlp.adam.iterations << ", PINN " << d.pinn.adam_iterations
       << ")\n"
          "  --width W, --depth D   MLP hidden units per layer and hidden layers (default "
-      << d.dem.width << ", " << d.dem.depth << "; PINN " << d.pinn.width << ", " << d.pinn.depth
+      << d.dem.network.width << ", " << d.dem.network.depth << "; PINN " << d.pinn.width << ", " << d.pinn.depth
       << ")\n"
          "  --boundary exact|penalty  fixtures held exactly, u = g + D z (grid default), or by the paper's\n"
          "                         penalty W_u MSE_u (mlp default; the feature grid needs exact)\n"

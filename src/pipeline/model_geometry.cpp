@@ -15,6 +15,13 @@ demnerf::geometry::DensityGrid densityGridOf(const demnerf::nerf::NerfModel& mod
       resolution);
 }
 
+demnerf::geometry::DensityGrid densityGridInBox(const demnerf::nerf::NerfModel& model, const Eigen::AlignedBox3d& box,
+                                                int resolution) {
+  return demnerf::geometry::sampleDensityInBox(
+      [&model](const float* points, std::int64_t n, float* sigma) { model.field().density(points, n, sigma); }, box,
+      resolution);
+}
+
 demnerf::geometry::MeshExtractionResult extractSurface(const demnerf::nerf::NerfModel& model, int resolution,
                                                        const demnerf::geometry::MeshExtractionConfig& config) {
   return demnerf::geometry::extractMesh(densityGridOf(model, resolution), config);

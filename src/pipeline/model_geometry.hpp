@@ -4,16 +4,20 @@
 
 #include "demnerf/core/particle_cloud.hpp"
 #include "demnerf/geometry/mesh_from_density.hpp"
+#include "demnerf/geometry/object_isolation.hpp"
 #include "demnerf/geometry/particle_sampler.hpp"
-
-/// The surface the pipeline extracts unless told otherwise: where the body reaches opacity 0.15
-/// seen from outside, on 192 cubic cells along the longest side (the T-bar: ~1 % volume error).
 #include "demnerf/nerf/model.hpp"
+#include "pipeline/surface_defaults.hpp"
 
 namespace dem_nerf {
 
 /// The model's density on cubic cells over its scene box, `resolution` along the longest side.
 demnerf::geometry::DensityGrid densityGridOf(const demnerf::nerf::NerfModel& model, int resolution);
+
+/// The model's density on cubic cells over `box` (the scene's frame), closed at the box's faces:
+/// the input of geometry::isolateObject for one object of a real capture.
+demnerf::geometry::DensityGrid densityGridInBox(const demnerf::nerf::NerfModel& model, const Eigen::AlignedBox3d& box,
+                                                int resolution);
 
 /// The closed surface of the model (config says which: density level or opacity from outside).
 demnerf::geometry::MeshExtractionResult extractSurface(const demnerf::nerf::NerfModel& model, int resolution,

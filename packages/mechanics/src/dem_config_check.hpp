@@ -17,7 +17,7 @@ struct ResolvedDemConfig {
   double spacing = 0.0;  ///< interiorParticleSpacing() of the cloud (m)
 };
 
-/// `config` with grid_cell resolved from grid_spacings or grid_body_cells; core::Error naming the
+/// `config` with grid.cell resolved from grid.spacings or grid.body_cells; core::Error naming the
 /// setting and a value that works when a setting is out of range or the grid does not suit the
 /// particles.
 ResolvedDemConfig resolvedDemConfig(DemConfig config, const core::ParticleCloud& cloud);

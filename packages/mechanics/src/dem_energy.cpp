@@ -37,7 +37,7 @@ void DemSolver::Impl::jitterBand(Tensor& x, Tensor (&lift)[4]) const {
   double* pgg = lb[1].data_ptr<double>();
   double* pd = lb[2].data_ptr<double>();
   double* pgd = lb[3].data_ptr<double>();
-  const bool exact = config.boundary == DemConfig::Boundary::kExact;
+  const bool exact = config.boundary.kind == DemConfig::Boundary::kExact;
   Eigen::Vector3d g, D;
   Eigen::Matrix3d gg, gD;
   for (long i = 0; i < nb; ++i) {
@@ -68,7 +68,7 @@ Tensor DemSolver::Impl::loss(double scale, double* energy, double* min_J, bool j
   const GridSupport* support = grid ? &grid_v : nullptr;
   if (jitter && n_band > 0) {
     jitterBand(x, lift_j);
-    if (config.boundary == DemConfig::Boundary::kExact) lift = lift_j;
+    if (config.boundary.kind == DemConfig::Boundary::kExact) lift = lift_j;
     support = nullptr;  // the jittered points' grid support is computed from x
   }
   auto [uv, gu] = displacement(x, lift, true, scale, support);
@@ -81,10 +81,10 @@ Tensor DemSolver::Impl::loss(double scale, double* energy, double* min_J, bool j
     pi = pi - scale * (traction_area * us).sum();
   }
   Tensor total = pi / energy_scale;
-  if (config.boundary == DemConfig::Boundary::kPenalty && xc.size(0) > 0) {
+  if (config.boundary.kind == DemConfig::Boundary::kPenalty && xc.size(0) > 0) {
     auto [uc, unused] = displacement(xc, nullptr, false, scale);
     const Tensor mse = ((uc - scale * fixed_value) * fixed_mask).pow(2).sum(1).mean();
-    total = total + config.penalty_weight * mse / (out_scale * out_scale);
+    total = total + config.boundary.penalty_weight * mse / (out_scale * out_scale);
   }
   if (energy) *energy = pi.item<double>();
   if (min_J) *min_J = J.numel() ? J.min().item<double>() : 1.0;

@@ -54,7 +54,7 @@ void DemSolver::Impl::setGridCoefficients(const Eigen::MatrixXd& C) {
 // In parametric mode the load fraction is the network's fourth input, normalised by the range's
 // largest magnitude; otherwise there is none.
 Tensor DemSolver::Impl::loadInput(const Tensor& x, double scale) const {
-  return config.parametric ? torch::full({x.size(0), 1}, scale / load_input_scale, x.options()) : Tensor();
+  return config.parametric.enabled ? torch::full({x.size(0), 1}, scale / load_input_scale, x.options()) : Tensor();
 }
 
 DisplacementMlp::Output DemSolver::Impl::hidden(const Tensor& x, bool jacobian, double scale) const {
@@ -76,11 +76,11 @@ std::pair<Tensor, Tensor> DemSolver::Impl::displacement(const Tensor& x, const T
   }
   // Parametric: u = s (g + D z(X, s)), so the rest state at s = 0 holds exactly and z stays O(1)
   // over the whole load range.
-  const double amplitude = config.parametric ? out_scale * scale : out_scale;
+  const double amplitude = config.parametric.enabled ? out_scale * scale : out_scale;
   z = z * amplitude;
   Tensor gu;
   if (gradient) gu = dz.transpose(1, 2) * amplitude;
-  if (config.boundary == DemConfig::Boundary::kPenalty || !lift) return {z, gu};
+  if (config.boundary.kind == DemConfig::Boundary::kPenalty || !lift) return {z, gu};
   const Tensor u = scale * lift[0] + lift[2] * z;
   if (gradient) gu = scale * lift[1] + lift[3] * z.unsqueeze(2) + lift[2].unsqueeze(2) * gu;
   return {u, gu};
@@ -109,11 +109,11 @@ double DemSolver::Impl::maxDisplacement(double scale) const {
 // trained fraction.
 void DemSolver::Impl::checkLoadScale(double load_scale) const {
   if (!std::isfinite(load_scale)) throw core::Error("DEM predict: the load scale is not finite");
-  if (config.parametric && (load_scale < config.load_range_min - 1e-12 || load_scale > config.load_range_max + 1e-12))
+  if (config.parametric.enabled && (load_scale < config.parametric.load_range_min - 1e-12 || load_scale > config.parametric.load_range_max + 1e-12))
     throw core::Error("DEM predict: load scale " + std::to_string(load_scale) + " lies outside the trained range [" +
-                      std::to_string(config.load_range_min) + ", " + std::to_string(config.load_range_max) +
+                      std::to_string(config.parametric.load_range_min) + ", " + std::to_string(config.parametric.load_range_max) +
                       "]; retrain with a wider load range");
-  if (!config.parametric && std::abs(load_scale - fraction) > 1e-12)
+  if (!config.parametric.enabled && std::abs(load_scale - fraction) > 1e-12)
     throw core::Error("DEM predict: this network was trained for load fraction " + std::to_string(fraction) +
                       " only; train with parametric = true to predict other loads");
 }

@@ -22,10 +22,10 @@ using torch_support::toTensor;
 // load split into 2 x 2 x 2 sub-points of their cube (Newton has no jitter to catch a ramp
 // between a region and the first particle layer).
 void DemSolver::Impl::buildGridQuadrature() {
-  if (config.grid_quadrature == DemConfig::GridQuadrature::kCells) {
+  if (config.grid.quadrature == DemConfig::GridQuadrature::kCells) {
     CellQuadratureConfig cq;
-    cq.points_per_axis = config.grid_gauss_points;
-    cq.boundary_levels = config.grid_boundary_levels;
+    cq.points_per_axis = config.grid.gauss_points;
+    cq.boundary_levels = config.grid.boundary_levels;
     CellQuadrature q = cellQuadrature(cloud, *grid, cq);
     gq_points = std::move(q.points);
     gq_volume = std::move(q.weights);
@@ -43,7 +43,7 @@ void DemSolver::Impl::buildGridQuadrature() {
 void DemSolver::Impl::buildParticleGridQuadrature() {
   // (1 - f) volumes + f energyWeights: both sum to the body's volume, so a homogeneous state
   // keeps its exact energy.
-  const double f = config.grid_surface_share;
+  const double f = config.grid.surface_share;
   std::vector<double> weight = cloud.volumes;
   if (f > 0) {
     const std::vector<double> shared = energyWeights(cloud);
@@ -51,7 +51,7 @@ void DemSolver::Impl::buildParticleGridQuadrature() {
   }
   gq_points.clear();
   gq_volume.clear();
-  const double band = config.grid_refine_band * config.grid_cell;
+  const double band = config.grid.refine_band * config.grid.cell;
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     if (!(weight[i] > 0)) continue;
     const Eigen::Vector3d& x = cloud.positions[i];
@@ -109,8 +109,9 @@ bool DemSolver::Impl::solveGrid(double scale, int& iterations) {
   // The Newton unknowns are in metres: c C.
   Eigen::MatrixXd C = toEigen(grid_coef.detach()) * out_scale;
   GridNewtonConfig newton;
-  newton.max_iterations = config.grid_newton_iterations;
-  newton.extension_fill = config.grid_extension_fill;
+  newton.max_iterations = config.grid.newton_iterations;
+  newton.extension_fill = config.grid.extension_fill;
+  newton.threads = config.threads;
   const int before = iterations;
   newton.on_iteration = [&](int it, double energy, double residual) {
     tick("newton", scale, before + it, energy, residual);
@@ -136,7 +137,7 @@ bool DemSolver::Impl::solveGrid(double scale, int& iterations) {
 
 std::string DemSolver::Impl::gridFailureAdvice() const {
   std::ostringstream text;
-  text << "The feature grid's Newton solve (cells of " << config.grid_cell << " m) did not reach an equilibrium"
+  text << "The feature grid's Newton solve (cells of " << config.grid.cell << " m) did not reach an equilibrium"
        << (last_grid.min_J > 0 ? "" : " or inverted the material") << " (last residual " << last_grid.residual
        << ", smallest det F " << last_grid.min_J
        << "). Likely causes: a load too large for the material (try a smaller load or more load_steps), a fixture "

@@ -13,95 +13,97 @@ namespace {
 constexpr core::ModelMagic kMagic = {'D', 'E', 'M', 'N', 'E', 'R', 'F', 'D'};
 constexpr const char* kWhat = "DEM model";
 
+// The model file keeps DemConfig's flat key names ("grid_cell" for config.grid.cell): the format
+// did not change when the struct grew parts, so every model saved before still loads.
 nlohmann::json toJson(const DemConfig& c) {
-  return {{"width", c.width},
-          {"depth", c.depth},
-          {"activation", c.activation},
-          {"boundary", c.boundary == DemConfig::Boundary::kExact ? "exact" : "penalty"},
-          {"penalty_weight", c.penalty_weight},
-          {"adam_iterations", c.adam_iterations},
-          {"adam_learning_rate", c.adam_learning_rate},
-          {"adam_final_rate_ratio", c.adam_final_rate_ratio},
-          {"rescale_every", c.rescale_every},
-          {"rescale_until", c.rescale_until},
-          {"output_newton", c.output_newton},
-          {"newton_every", c.newton_every},
-          {"newton_iterations", c.newton_iterations},
-          {"grid_cell", c.grid_cell},
-          {"grid_spacings", c.grid_spacings},
-          {"grid_degree", c.grid_degree},
-          {"grid_newton_iterations", c.grid_newton_iterations},
-          {"grid_refine_band", c.grid_refine_band},
-          {"grid_surface_share", c.grid_surface_share},
-          {"grid_quadrature", c.grid_quadrature == DemConfig::GridQuadrature::kCells ? "cells" : "particles"},
-          {"grid_gauss_points", c.grid_gauss_points},
-          {"grid_boundary_levels", c.grid_boundary_levels},
-          {"grid_body_cells", c.grid_body_cells},
-          {"grid_extension_fill", c.grid_extension_fill},
+  return {{"width", c.network.width},
+          {"depth", c.network.depth},
+          {"activation", c.network.activation},
+          {"boundary", c.boundary.kind == DemConfig::Boundary::kExact ? "exact" : "penalty"},
+          {"penalty_weight", c.boundary.penalty_weight},
+          {"adam_iterations", c.adam.iterations},
+          {"adam_learning_rate", c.adam.learning_rate},
+          {"adam_final_rate_ratio", c.adam.final_rate_ratio},
+          {"rescale_every", c.adam.rescale_every},
+          {"rescale_until", c.adam.rescale_until},
+          {"output_newton", c.output_newton.enabled},
+          {"newton_every", c.output_newton.every},
+          {"newton_iterations", c.output_newton.iterations},
+          {"grid_cell", c.grid.cell},
+          {"grid_spacings", c.grid.spacings},
+          {"grid_degree", c.grid.degree},
+          {"grid_newton_iterations", c.grid.newton_iterations},
+          {"grid_refine_band", c.grid.refine_band},
+          {"grid_surface_share", c.grid.surface_share},
+          {"grid_quadrature", c.grid.quadrature == DemConfig::GridQuadrature::kCells ? "cells" : "particles"},
+          {"grid_gauss_points", c.grid.gauss_points},
+          {"grid_boundary_levels", c.grid.boundary_levels},
+          {"grid_body_cells", c.grid.body_cells},
+          {"grid_extension_fill", c.grid.extension_fill},
           {"load_steps", c.load_steps},
-          {"jitter", c.jitter},
-          {"jitter_band", c.jitter_band},
-          {"lbfgs_iterations", c.lbfgs_iterations},
-          {"lbfgs_history", c.lbfgs_history},
-          {"polish_max_energy_drop", c.polish_max_energy_drop},
-          {"polish_max_growth", c.polish_max_growth},
-          {"tolerance", c.tolerance},
+          {"jitter", c.adam.jitter},
+          {"jitter_band", c.adam.jitter_band},
+          {"lbfgs_iterations", c.lbfgs.iterations},
+          {"lbfgs_history", c.lbfgs.history},
+          {"polish_max_energy_drop", c.lbfgs.max_energy_drop},
+          {"polish_max_growth", c.lbfgs.max_growth},
+          {"tolerance", c.lbfgs.tolerance},
           {"max_halvings", c.max_halvings},
-          {"parametric", c.parametric},
-          {"load_range_min", c.load_range_min},
-          {"load_range_max", c.load_range_max},
-          {"parametric_samples", c.parametric_samples},
-          {"seed", c.seed},
-          {"double_precision", c.double_precision}};
+          {"parametric", c.parametric.enabled},
+          {"load_range_min", c.parametric.load_range_min},
+          {"load_range_max", c.parametric.load_range_max},
+          {"parametric_samples", c.parametric.samples},
+          {"seed", c.network.seed},
+          {"double_precision", c.network.double_precision}};
 }
 
 // Threads, verbosity and the allocator switch belong to the machine that loads the model.
 DemConfig configFromJson(const nlohmann::json& j) {
   DemConfig c;
-  c.width = j.at("width");
-  c.depth = j.at("depth");
-  c.activation = j.at("activation");
-  c.boundary = j.at("boundary") == "penalty" ? DemConfig::Boundary::kPenalty : DemConfig::Boundary::kExact;
-  c.penalty_weight = j.at("penalty_weight");
-  c.adam_iterations = j.at("adam_iterations");
-  c.adam_learning_rate = j.at("adam_learning_rate");
-  c.adam_final_rate_ratio = j.at("adam_final_rate_ratio");
-  c.rescale_every = j.at("rescale_every");
-  c.rescale_until = j.at("rescale_until");
-  c.output_newton = j.at("output_newton");
-  c.newton_every = j.at("newton_every");
-  c.newton_iterations = j.at("newton_iterations");
+  c.network.width = j.at("width");
+  c.network.depth = j.at("depth");
+  c.network.activation = j.at("activation");
+  c.boundary.kind = j.at("boundary") == "penalty" ? DemConfig::Boundary::kPenalty : DemConfig::Boundary::kExact;
+  c.boundary.penalty_weight = j.at("penalty_weight");
+  c.adam.iterations = j.at("adam_iterations");
+  c.adam.learning_rate = j.at("adam_learning_rate");
+  c.adam.final_rate_ratio = j.at("adam_final_rate_ratio");
+  c.adam.rescale_every = j.at("rescale_every");
+  c.adam.rescale_until = j.at("rescale_until");
+  c.output_newton.enabled = j.at("output_newton");
+  c.output_newton.every = j.at("newton_every");
+  c.output_newton.iterations = j.at("newton_iterations");
   // Models saved before the feature grid existed have none.
-  c.grid_cell = j.value("grid_cell", 0.0);
-  c.grid_spacings = j.value("grid_spacings", 0.0);
-  c.grid_degree = j.value("grid_degree", 2);
-  c.grid_newton_iterations = j.value("grid_newton_iterations", 30);
-  c.grid_refine_band = j.value("grid_refine_band", 1.0);
-  c.grid_surface_share = j.value("grid_surface_share", 0.04);
+  c.grid.cell = j.value("grid_cell", 0.0);
+  c.grid.spacings = j.value("grid_spacings", 0.0);
+  c.grid.degree = j.value("grid_degree", 2);
+  c.grid.newton_iterations = j.value("grid_newton_iterations", 30);
+  c.grid.refine_band = j.value("grid_refine_band", 1.0);
+  c.grid.surface_share = j.value("grid_surface_share", 0.04);
   // Models saved before the cell quadrature was the default integrated by the particles, with the
   // grid sized from grid_cell or grid_spacings and no extension.
-  c.grid_quadrature = j.value("grid_quadrature", std::string("particles")) == "cells"
+  c.grid.quadrature = j.value("grid_quadrature", std::string("particles")) == "cells"
                           ? DemConfig::GridQuadrature::kCells
                           : DemConfig::GridQuadrature::kParticles;
-  c.grid_gauss_points = j.value("grid_gauss_points", 2);
-  c.grid_boundary_levels = j.value("grid_boundary_levels", 0);
-  c.grid_body_cells = j.value("grid_body_cells", 0.0);
-  c.grid_extension_fill = j.value("grid_extension_fill", 0.0);
+  c.grid.gauss_points = j.value("grid_gauss_points", 2);
+  c.grid.boundary_levels = j.value("grid_boundary_levels", 0);
+  c.grid.body_cells = j.value("grid_body_cells", 0.0);
+  c.grid.extension_fill = j.value("grid_extension_fill", 0.0);
   c.load_steps = j.value("load_steps", 0);
-  c.jitter = j.at("jitter");
-  c.jitter_band = j.at("jitter_band");
-  c.lbfgs_iterations = j.at("lbfgs_iterations");
-  c.lbfgs_history = j.at("lbfgs_history");
-  c.polish_max_energy_drop = j.at("polish_max_energy_drop");
-  c.polish_max_growth = j.at("polish_max_growth");
-  c.tolerance = j.at("tolerance");
+  c.adam.jitter = j.at("jitter");
+  c.adam.jitter_band = j.at("jitter_band");
+  c.lbfgs.iterations = j.at("lbfgs_iterations");
+  c.lbfgs.history = j.at("lbfgs_history");
+  c.lbfgs.max_energy_drop = j.at("polish_max_energy_drop");
+  c.lbfgs.max_growth = j.at("polish_max_growth");
+  c.lbfgs.tolerance = j.at("tolerance");
   c.max_halvings = j.at("max_halvings");
-  c.parametric = j.at("parametric");
-  c.load_range_min = j.at("load_range_min");
-  c.load_range_max = j.at("load_range_max");
-  c.parametric_samples = j.at("parametric_samples");
-  c.seed = j.at("seed");
-  c.double_precision = j.at("double_precision");
+  c.parametric.enabled = j.at("parametric");
+  c.parametric.load_range_min = j.at("load_range_min");
+  c.parametric.load_range_max = j.at("load_range_max");
+  c.parametric.samples = j.at("parametric_samples");
+  c.network.seed = j.at("seed");
+  c.network.double_precision = j.at("double_precision");
   return c;
 }
 

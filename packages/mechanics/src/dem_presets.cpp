@@ -1,38 +1,67 @@
-// The DEM's named settings beside the struct's defaults (the feature-grid DEM): kept in one place
-// so that `demnerf simulate` and dem_node cannot drift apart.
+// The DEM's named settings beside the struct's defaults (the feature-grid DEM), and the rules that
+// turn a user's choice into a config: kept in one place so that `demnerf simulate` and dem_node
+// cannot drift apart.
 
+#include "demnerf/core/error.hpp"
 #include "demnerf/mechanics/dem_solver.hpp"
 
 namespace demnerf::mechanics {
 
 DemConfig paperDemConfig() {
   DemConfig config;
-  config.grid_cell = 0.0;
-  config.grid_spacings = 0.0;
-  config.grid_body_cells = 0.0;
-  config.adam_iterations = 1500;
-  config.boundary = DemConfig::Boundary::kPenalty;
+  config.grid.cell = 0.0;
+  config.grid.spacings = 0.0;
+  config.grid.body_cells = 0.0;
+  config.adam.iterations = 1500;
+  config.boundary.kind = DemConfig::Boundary::kPenalty;
   return config;
 }
 
 DemConfig parametricDemConfig(DemConfig config) {
-  config.parametric = true;
-  config.grid_cell = 0.0;
-  config.grid_spacings = 0.0;
-  config.grid_body_cells = 0.0;
-  if (config.adam_iterations == 0) config.adam_iterations = paperDemConfig().adam_iterations;
+  config.parametric.enabled = true;
+  config.grid.cell = 0.0;
+  config.grid.spacings = 0.0;
+  config.grid.body_cells = 0.0;
+  if (config.adam.iterations == 0) config.adam.iterations = paperDemConfig().adam.iterations;
   return config;
 }
 
-DemConfig withGridChoice(DemConfig config, const DemGridChoice& choice) {
-  if (choice.cell) config.grid_cell = *choice.cell;
-  if (choice.spacings) config.grid_spacings = *choice.spacings;
-  if (choice.body_cells) {
-    config.grid_body_cells = *choice.body_cells;
-    if (!choice.spacings) config.grid_spacings = 0.0;  // the body, not the particles, sizes the cells
+namespace {
+
+bool hasGrid(const DemConfig& config) {
+  return config.grid.cell > 0 || config.grid.spacings > 0 || config.grid.body_cells > 0;
+}
+
+}  // namespace
+
+DemConfig normalised(DemConfig config, const DemChoice& choice) {
+  const bool grid_given = choice.grid_cell || choice.grid_spacings || choice.grid_body_cells;
+  if (choice.grid_cell) config.grid.cell = *choice.grid_cell;
+  if (choice.grid_spacings) config.grid.spacings = *choice.grid_spacings;
+  if (choice.grid_body_cells) {
+    config.grid.body_cells = *choice.grid_body_cells;
+    if (!choice.grid_spacings) config.grid.spacings = 0.0;  // the body, not the particles, sizes the cells
   }
-  if (choice.adam_iterations) config.adam_iterations = *choice.adam_iterations;
-  else if (choice.cell || choice.spacings || choice.body_cells) config.adam_iterations = 0;
+  // The grid's Newton solve is the training: a grid chosen without Adam steps takes none.
+  if (choice.adam_iterations) config.adam.iterations = *choice.adam_iterations;
+  else if (grid_given) config.adam.iterations = 0;
+  if (choice.load_range) {
+    if (grid_given)
+      throw core::Error("a parametric load range trains the MLP alone (the feature grid does not take the load as an "
+                        "input): drop the grid setting (--grid-cell / --grid-spacings / --grid-body-cells, "
+                        "~dem_grid_*) or the load range");
+    const auto [lo, hi] = *choice.load_range;
+    if (!(lo < hi) || lo > 1.0 || hi < 1.0)
+      throw core::Error("the parametric load range must be MIN,MAX with MIN < MAX and MIN <= 1 <= MAX (scales of the "
+                        "scenario's load), got " + std::to_string(lo) + "," + std::to_string(hi));
+    config.parametric.enabled = true;
+    config.parametric.load_range_min = lo;
+    config.parametric.load_range_max = hi;
+  }
+  if (config.parametric.enabled) return parametricDemConfig(config);
+  if (config.output_newton.enabled && hasGrid(config))
+    throw core::Error("the output-layer Newton (--newton, output_newton.enabled) solves the MLP's output layer, which "
+                      "the feature grid takes over: use the MLP alone (--method mlp --boundary exact --newton)");
   return config;
 }
 

@@ -69,7 +69,7 @@ DemSessionAnswer DemSession::answer(const core::Scenario& scenario, const SolveC
   if (!cloud_) throw core::Error("DEM: no particles yet (the particle cloud has not arrived)");
   const auto start = std::chrono::steady_clock::now();
   DemSessionAnswer answer;
-  if (solver_ && config_.parametric) {
+  if (solver_ && config_.parametric.enabled) {
     const auto s = loadScaleBetween(trained_, scenario);
     const auto [lo, hi] = solver_->loadRange();
     if (s && *s >= lo && *s <= hi) {

@@ -27,30 +27,30 @@ DemSolver::DemSolver(core::ParticleCloud cloud, const core::Scenario& scenario, 
   config = resolved.config;
   const double spacing = resolved.spacing;
   m.config = config;
-  m.dtype = config.double_precision ? torch::kFloat64 : torch::kFloat32;
+  m.dtype = config.network.double_precision ? torch::kFloat64 : torch::kFloat32;
   torch_support::setSolverThreads(config.threads, cloud.size());
   if (config.tune_allocator) torch_support::keepLargeAllocationsInHeap();
   m.cloud = std::move(cloud);
-  torch::manual_seed(config.seed);
+  torch::manual_seed(config.network.seed);
   const torch_support::BodyBox box = torch_support::bodyBox(m.cloud);
   m.length = box.length;
-  m.load_input_scale = std::max(std::abs(config.load_range_min), std::abs(config.load_range_max));
+  m.load_input_scale = std::max(std::abs(config.parametric.load_range_min), std::abs(config.parametric.load_range_max));
   m.eye3 = torch::eye(3, torch::TensorOptions().dtype(m.dtype)).unsqueeze(0);
-  m.rng.seed(static_cast<unsigned>(config.seed));
-  m.net = DisplacementMlp(config.parametric ? 1 : 0, config.width, config.depth, config.activation, box.center,
+  m.rng.seed(static_cast<unsigned>(config.network.seed));
+  m.net = DisplacementMlp(config.parametric.enabled ? 1 : 0, config.network.width, config.network.depth, config.network.activation, box.center,
                           box.half, m.dtype);
-  if (config.grid_cell > 0) {
+  if (config.grid.cell > 0) {
     // The cell quadrature gets half a spacing of margin: a lattice cloud whose outer particles
     // carry whole cells of volume describes a body that far beyond its particles
     // (cell_quadrature.hpp moves the surface out). The particle quadrature stays on the particles:
     // nodes seen only at the edge of their support would be near-singular.
-    const double pad = config.grid_quadrature == DemConfig::GridQuadrature::kCells ? 0.5 * spacing : 0.0;
+    const double pad = config.grid.quadrature == DemConfig::GridQuadrature::kCells ? 0.5 * spacing : 0.0;
     const Eigen::Vector3d margin = Eigen::Vector3d::Constant(pad);
     m.grid = std::make_unique<BsplineGrid>(box.center - box.half - margin, box.center + box.half + margin,
-                                           config.grid_cell, config.grid_degree);
+                                           config.grid.cell, config.grid.degree);
     if (m.grid->nodeCount() > 4000000)
-      throw core::Error("DEM feature grid of " + std::to_string(m.grid->nodeCount()) + " nodes: grid_cell " +
-                        std::to_string(config.grid_cell) + " m is far too fine for a body of " +
+      throw core::Error("DEM feature grid of " + std::to_string(m.grid->nodeCount()) + " nodes: grid.cell " +
+                        std::to_string(config.grid.cell) + " m is far too fine for a body of " +
                         std::to_string(m.length) + " m; use a cell of a few particle spacings");
     m.grid_coef = torch::zeros({m.grid->nodeCount(), 3}, torch::TensorOptions().dtype(m.dtype)).requires_grad_(true);
   }
@@ -69,7 +69,7 @@ void DemSolver::Impl::orderBandLast(std::vector<long>& volume_particles) {
       half_cell[i] = 0.5 * std::cbrt(cloud.volumes[i]);
       for (const core::Fixture& f : scenario.fixtures) near = std::min(near, regionDistance(f.region, cloud.positions[i]));
     }
-    (interior && config.jitter && near < config.jitter_band * 2 * half_cell[i] ? band_part : fixed_part).push_back(i);
+    (interior && config.adam.jitter && near < config.adam.jitter_band * 2 * half_cell[i] ? band_part : fixed_part).push_back(i);
   }
   volume_particles = fixed_part;
   volume_particles.insert(volume_particles.end(), band_part.begin(), band_part.end());
@@ -92,7 +92,7 @@ DemSolver::Impl::LoadSizes DemSolver::Impl::setParticleSets() {
   // outer particle layer and the surface: they keep their own volume (moving a share to surface
   // points would under-weight that strip and reopen a cheaper-than-physical surface layer; measured
   // on the uniaxial cube: energy 2 % below the exact minimum). Fixed quadrature needs the shares.
-  const std::vector<double> weight = config.jitter ? cloud.volumes : energyWeights(cloud);
+  const std::vector<double> weight = config.adam.jitter ? cloud.volumes : energyWeights(cloud);
   std::vector<long> vi, si;
   double volume = 0.0, max_t = 0.0, max_g = 0.0;
   for (std::size_t i = 0; i < cloud.size(); ++i) {
@@ -177,12 +177,12 @@ DemReport DemSolver::solve() {
   m.last_grid = GridNewtonOutcome{};
   std::vector<Tensor> saved = m.snapshot();
   try {
-    if (m.config.parametric) {
+    if (m.config.parametric.enabled) {
       if (!m.trainParametric(report.iterations)) {
         m.restore(saved);
         throw SolveError(SolveFailure::kInverted,
-                         "DEM (parametric): training over load fractions [" + std::to_string(m.config.load_range_min) +
-                             ", " + std::to_string(m.config.load_range_max) +
+                         "DEM (parametric): training over load fractions [" + std::to_string(m.config.parametric.load_range_min) +
+                             ", " + std::to_string(m.config.parametric.load_range_max) +
                              "] inverted particles (det F <= 0) or diverged (NaN); narrow the range or lower the "
                              "learning rate");
       }
@@ -252,7 +252,7 @@ std::vector<Eigen::Vector3d> DemSolver::predict(const std::vector<Eigen::Vector3
   torch::NoGradGuard guard;
   const Tensor x = toTensor(points, m.dtype);
   Tensor u;
-  if (m.config.boundary == DemConfig::Boundary::kExact) {
+  if (m.config.boundary.kind == DemConfig::Boundary::kExact) {
     const DirichletLift lift = dirichletLift(m.scenario, points, m.length);
     const Tensor parts[4] = {toTensor(lift.g, m.dtype), Tensor(), toTensor(lift.D, m.dtype), Tensor()};
     u = m.displacement(x, parts, false, load_scale).first;
@@ -290,7 +290,7 @@ const core::ParticleCloud& DemSolver::particles() const { return impl_->cloud; }
 
 std::pair<double, double> DemSolver::loadRange() const {
   const Impl& m = *impl_;
-  if (m.config.parametric) return {m.config.load_range_min, m.config.load_range_max};
+  if (m.config.parametric.enabled) return {m.config.parametric.load_range_min, m.config.parametric.load_range_max};
   return {m.fraction, m.fraction};
 }
 

@@ -59,7 +59,7 @@ struct DemSolver::Impl {
   double done_fraction = 0.0;
   GridNewtonOutcome last_grid;
 
-  // Feature grid (DemConfig::grid_cell): the basis, its coefficients (a parameter, in units of the
+  // Feature grid (DemConfig::grid.cell): the basis, its coefficients (a parameter, in units of the
   // output scale like the MLP's output) and the supports of the fixed point sets.
   struct GridSupport {
     Tensor nodes, N, dN;  // [n, S] node indices, [n, S] values, [n, S, 3] X-gradients
@@ -67,7 +67,7 @@ struct DemSolver::Impl {
   std::unique_ptr<BsplineGrid> grid;
   Tensor grid_coef;
   GridSupport grid_v, grid_s;
-  // The grid Newton's fixed quadrature (particles near fixtures split, DemConfig::grid_refine_band).
+  // The grid Newton's fixed quadrature (particles near fixtures split, DemConfig::grid.refine_band).
   std::vector<Eigen::Vector3d> gq_points;
   std::vector<double> gq_volume;
   DirichletLift gq_lift;

@@ -33,7 +33,7 @@ DemSolver DemSolver::fromState(const DemState& state) {
   std::vector<torch::Tensor>& biases = m.net.biases();
   if (state.weights.size() != weights.size() || state.biases.size() != biases.size())
     throw core::Error("DEM state has " + std::to_string(state.weights.size()) + " layers; the config (depth " +
-                      std::to_string(state.config.depth) + ") needs " + std::to_string(weights.size()));
+                      std::to_string(state.config.network.depth) + ") needs " + std::to_string(weights.size()));
   torch::NoGradGuard guard;
   for (std::size_t l = 0; l < weights.size(); ++l) {
     const Eigen::MatrixXd& W = state.weights[l];

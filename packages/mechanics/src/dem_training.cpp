@@ -39,7 +39,7 @@ void DemSolver::Impl::reportProgress(int iterations) const {
 }
 
 bool DemSolver::Impl::newtonEnabled() const {
-  return config.output_newton && config.boundary == DemConfig::Boundary::kExact && !config.parametric;
+  return config.output_newton.enabled && config.boundary.kind == DemConfig::Boundary::kExact && !config.parametric.enabled;
 }
 
 // Newton on the output layer with the hidden layers frozen (output_layer_newton.hpp): the best
@@ -73,7 +73,7 @@ void DemSolver::Impl::solveOutputLayer(double scale) {
   W.leftCols(m - 1) = toEigen(net.weights().back());
   W.col(m - 1) = toEigen(net.biases().back().unsqueeze(1)).col(0);
   OutputLayerNewtonConfig newton;
-  newton.max_iterations = config.newton_iterations;
+  newton.max_iterations = config.output_newton.iterations;
   const OutputLayerNewtonOutcome outcome = minimiseOutputLayer(pb, *material, W, newton);
   const Tensor w = torch::from_blob(W.data(), {m, 3}, torch::kFloat64).t().to(dtype);  // column-major W
   net.weights().back().copy_(w.narrow(1, 0, m - 1));
@@ -84,24 +84,24 @@ void DemSolver::Impl::solveOutputLayer(double scale) {
 }
 
 // Parametric mode: one Adam run over the whole load range. Each step draws
-// parametric_samples load fractions (stratified over the range) and minimises the sum of their
+// parametric.samples load fractions (stratified over the range) and minimises the sum of their
 // potential energies, each divided by its own scale (energy grows with the load squared), so
 // small and large loads are learnt alike. False when a sample inverts particles or turns NaN.
 bool DemSolver::Impl::trainParametric(int& iterations) {
-  const double lo = config.load_range_min, hi = config.load_range_max;
+  const double lo = config.parametric.load_range_min, hi = config.parametric.load_range_max;
   const double floor = 0.05 * load_input_scale;  // keeps samples near 0 from dominating
-  const int k = std::max(1, config.parametric_samples);
+  const int k = std::max(1, config.parametric.samples);
   std::uniform_real_distribution<double> u01(0.0, 1.0);
   fraction = 1.0;  // what predict() shows from a progress callback
-  const int n = std::max(1, config.adam_iterations);
-  DecayingAdam adam(parameters(), config.adam_learning_rate, config.adam_final_rate_ratio, n);
+  const int n = std::max(1, config.adam.iterations);
+  DecayingAdam adam(parameters(), config.adam.learning_rate, config.adam.final_rate_ratio, n);
   for (int it = 0; it < n; ++it) {
     adam.zeroGrad();
     Tensor total;
     for (int j = 0; j < k; ++j) {
       const double s = lo + (hi - lo) * (j + u01(rng)) / k;
       double jmin = 0;
-      Tensor l = loss(s, nullptr, &jmin, config.jitter) / (s * s + floor * floor);
+      Tensor l = loss(s, nullptr, &jmin, config.adam.jitter) / (s * s + floor * floor);
       if (!std::isfinite(l.item<double>()) || !(jmin > 0)) return false;
       if (j == 0) tick("adam", s, iterations, l.item<double>() * energy_scale * (s * s + floor * floor),
                        std::numeric_limits<double>::quiet_NaN());
@@ -127,13 +127,13 @@ bool DemSolver::Impl::train(double scale, int& iterations, DemReport& report) {
   const bool newton = newtonEnabled();
   if (newton) solveOutputLayer(scale);
   if (grid && !solveGrid(scale, iterations)) return false;
-  if (config.adam_iterations > 0) {
+  if (config.adam.iterations > 0) {
     if (!runAdam(scale, iterations)) return false;
     rescaled = true;
   }
   if (newton) solveOutputLayer(scale);
-  if (grid && config.adam_iterations > 0 && !solveGrid(scale, iterations)) return false;
-  if (config.lbfgs_iterations > 0) polishWithLbfgs(scale, iterations, report);
+  if (grid && config.adam.iterations > 0 && !solveGrid(scale, iterations)) return false;
+  if (config.lbfgs.iterations > 0) polishWithLbfgs(scale, iterations, report);
   torch::NoGradGuard guard;
   double jmin = 0;
   const Tensor l = loss(scale, nullptr, &jmin);
@@ -146,22 +146,22 @@ bool DemSolver::Impl::train(double scale, int& iterations, DemReport& report) {
 // step and the periodic output-layer Newton; false when the loss turns NaN or a particle inverts.
 bool DemSolver::Impl::runAdam(double scale, int& iterations) {
   const bool newton = newtonEnabled();
-  const int n = config.adam_iterations;
-  DecayingAdam adam(parameters(), config.adam_learning_rate, config.adam_final_rate_ratio, n);
+  const int n = config.adam.iterations;
+  DecayingAdam adam(parameters(), config.adam.learning_rate, config.adam.final_rate_ratio, n);
   for (int it = 0; it < n; ++it) {
-    if (!newton && !grid && !rescaled && config.rescale_every > 0 && it > 0 && it % config.rescale_every == 0 &&
-        it <= config.rescale_until && config.boundary == DemConfig::Boundary::kExact)
+    if (!newton && !grid && !rescaled && config.adam.rescale_every > 0 && it > 0 && it % config.adam.rescale_every == 0 &&
+        it <= config.adam.rescale_until && config.boundary.kind == DemConfig::Boundary::kExact)
       rescaleOutput(scale);
     adam.zeroGrad();
     double jmin = 0;
-    Tensor l = loss(scale, nullptr, &jmin, config.jitter);
+    Tensor l = loss(scale, nullptr, &jmin, config.adam.jitter);
     const double value = l.item<double>();
     if (!std::isfinite(value) || !(jmin > 0)) return false;
     tick("adam", scale, iterations, value * energy_scale, std::numeric_limits<double>::quiet_NaN());
     l.backward();
     adam.step();
     reportProgress(++iterations);
-    if (newton && config.newton_every > 0 && (it + 1) % config.newton_every == 0 && it + 1 < n)
+    if (newton && config.output_newton.every > 0 && (it + 1) % config.output_newton.every == 0 && it + 1 < n)
       solveOutputLayer(scale);
   }
   return true;
@@ -178,7 +178,7 @@ void DemSolver::Impl::polishWithLbfgs(double scale, int& iterations, DemReport& 
     loss(scale, &e_before, nullptr);
   }
   const double u_before = maxDisplacement(scale);
-  runLbfgs(parameters(), config.lbfgs_iterations, config.lbfgs_history, config.tolerance, [&] {
+  runLbfgs(parameters(), config.lbfgs.iterations, config.lbfgs.history, config.lbfgs.tolerance, [&] {
     double jm = 0;
     Tensor l = loss(scale, nullptr, &jm);
     reportProgress(++iterations);
@@ -192,8 +192,8 @@ void DemSolver::Impl::polishWithLbfgs(double scale, int& iterations, DemReport& 
   }
   const double u_after = maxDisplacement(scale);
   const bool exploit = !std::isfinite(e_after) || !(jm > 0) ||
-                       e_after < e_before - config.polish_max_energy_drop * std::abs(e_before) ||
-                       u_after > config.polish_max_growth * u_before || u_after > length;
+                       e_after < e_before - config.lbfgs.max_energy_drop * std::abs(e_before) ||
+                       u_after > config.lbfgs.max_growth * u_before || u_after > length;
   if (exploit) {
     if (config.verbose)
       std::cerr << "dem: L-BFGS polish rejected (energy " << e_before << " -> " << e_after << ", max |u| " << u_before

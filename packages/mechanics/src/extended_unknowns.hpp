@@ -31,6 +31,7 @@ class Unknowns {
           entries.emplace_back(3 * static_cast<int>(it.row()) + i, 3 * static_cast<int>(it.col()) + i, it.value());
     map_.resize(3 * ext.map.rows(), 3 * ext.map.cols());
     map_.setFromTriplets(entries.begin(), entries.end());
+    node_map_ = ext.map;
     kept_ = ext.kept;
     extended_ = true;
   }
@@ -43,19 +44,20 @@ class Unknowns {
     for (std::size_t k = 0; k < kept_.size(); ++k) r.segment<3>(3 * k) = c.segment<3>(3 * kept_[k]);
     return r;
   }
-  /// Gradient and Hessian (lower triangle) in the unknowns.
-  void project(Eigen::VectorXd& gradient, Eigen::SparseMatrix<double>& hessian) const {
-    if (!extended_) return;
-    gradient = map_.transpose() * gradient;
-    const Eigen::SparseMatrix<double> symmetric = hessian.selfadjointView<Eigen::Lower>();
-    const Eigen::SparseMatrix<double> reduced = map_.transpose() * symmetric * map_;
-    hessian = reduced.triangularView<Eigen::Lower>();
+  /// The gradient in the unknowns (E^T g).
+  Eigen::VectorXd projectGradient(const Eigen::VectorXd& gradient) const {
+    return extended_ ? Eigen::VectorXd(map_.transpose() * gradient) : gradient;
   }
+  /// The position in the active list of unknown node r.
+  long activeOfUnknown(long r) const { return extended_ ? kept_[r] : r; }
+  /// Active nodes x kept nodes (bspline_extension.hpp); empty when every active node is an unknown.
+  const Eigen::SparseMatrix<double>& nodeMap() const { return node_map_; }
 
  private:
   bool extended_ = false;
   std::vector<long> kept_;           // positions in the active list of the kept nodes
   Eigen::SparseMatrix<double> map_;  // 3 x active nodes by 3 x kept nodes
+  Eigen::SparseMatrix<double> node_map_;
 };
 
 }  // namespace demnerf::mechanics

@@ -3,12 +3,13 @@
 // energy, residual and tangent at a state.
 #include <algorithm>
 #include <cmath>
-#include <thread>
 
 #include "demnerf/core/error.hpp"
 #include "demnerf/mechanics/boundary_conditions.hpp"
+#include "demnerf/mechanics/boundary_load_quadrature.hpp"
 #include "fem_solver_impl.hpp"
 #include "fill_reducing_order.hpp"
+#include "parallel_for.hpp"
 
 namespace demnerf::mechanics {
 namespace {
@@ -27,38 +28,6 @@ std::vector<std::pair<Eigen::Vector4d, double>> volumeRule(int order) {
   return rule;
 }
 
-// 6-point degree-4 triangle rule (Dunavant): exact for quadratic shape times linear traction.
-std::vector<std::pair<Eigen::Vector3d, double>> faceRule() {
-  std::vector<std::pair<Eigen::Vector3d, double>> rule;
-  const double a1 = 0.108103018168070, b1 = 0.445948490915965, w1 = 0.223381589678011;
-  const double a2 = 0.816847572980459, b2 = 0.091576213509771, w2 = 0.109951743655322;
-  for (int i = 0; i < 3; ++i) {
-    Eigen::Vector3d p1 = Eigen::Vector3d::Constant(b1), p2 = Eigen::Vector3d::Constant(b2);
-    p1(i) = a1;
-    p2(i) = a2;
-    rule.emplace_back(p1, w1);
-    rule.emplace_back(p2, w2);
-  }
-  return rule;
-}
-
-// Runs fn(begin, end) over [0, count) split into `threads` contiguous chunks.
-template <typename Fn>
-void parallelFor(int count, int threads, const Fn& fn) {
-  if (threads <= 1 || count < 2 * threads) {
-    fn(0, count);
-    return;
-  }
-  std::vector<std::thread> pool;
-  const int chunk = (count + threads - 1) / threads;
-  for (int t = 1; t < threads; ++t) {
-    const int begin = std::min(count, t * chunk), end = std::min(count, (t + 1) * chunk);
-    if (begin < end) pool.emplace_back([&fn, begin, end] { fn(begin, end); });
-  }
-  fn(0, std::min(count, chunk));
-  for (auto& t : pool) t.join();
-}
-
 }  // namespace
 
 void FemSolver::Impl::setup() {
@@ -67,7 +36,7 @@ void FemSolver::Impl::setup() {
   n = mesh.nodesPerElement();
   if (mesh.elements.empty()) throw core::Error("the FEM mesh has no elements");
   if (config.threads < 0) throw core::Error("FemConfig threads must be >= 0 (0: all cores), got " + std::to_string(config.threads));
-  threads = config.threads > 0 ? config.threads : std::max(1u, std::thread::hardware_concurrency());
+  threads = assemblyThreads(config.threads);
   const auto rule = volumeRule(mesh.order);
   nq = static_cast<int>(rule.size());
   const int ndof = 3 * static_cast<int>(mesh.nodes.size());
@@ -197,7 +166,7 @@ void FemSolver::Impl::setupPattern() {
   // Scatter positions.
   const int m = 3 * n, packed = m * (m + 1) / 2;
   scatter.assign(static_cast<std::size_t>(n_el) * packed, -1);
-  parallelFor(n_el, threads, [&](int begin, int end) {
+  parallelFor(n_el, threads, [&](long begin, long end) {
     for (int e = begin; e < end; ++e)
       for (int r = 0; r < m; ++r) {
         const int fr = free_index[3 * mesh.elements[e][r / 3] + r % 3];
@@ -216,37 +185,16 @@ void FemSolver::Impl::setupPattern() {
 }
 void FemSolver::Impl::setupLoads() {
   const auto faces = boundaryFaces(mesh);
-  const auto rule = faceRule();
   for (const core::Load& load : scenario.loads) {
-    struct Point {
-      int element;
-      Eigen::Vector4d L;
-    };
-    std::vector<Point> where;
+    const std::vector<BoundaryLoadPoint> where = boundaryLoadQuadrature(mesh, faces, load.region);
     std::vector<Eigen::Vector3d> points;
     std::vector<double> weights;
-    for (const BoundaryFace& face : faces) {
-      const auto c = corners(face.element);
-      int local[3], k = 0;
-      for (int v = 0; v < 4; ++v)
-        if (v != face.opposite) local[k++] = v;
-      const Eigen::Vector3d centroid = (c[local[0]] + c[local[1]] + c[local[2]]) / 3.0;
-      if (!load.region.contains(centroid)) continue;
-      const double area = 0.5 * (c[local[1]] - c[local[0]]).cross(c[local[2]] - c[local[0]]).norm();
-      for (const auto& [b, w] : rule) {
-        Eigen::Vector4d L = Eigen::Vector4d::Zero();
-        Eigen::Vector3d x = Eigen::Vector3d::Zero();
-        for (int v = 0; v < 3; ++v) {
-          L(local[v]) = b(v);
-          x += b(v) * c[local[v]];
-        }
-        where.push_back({face.element, L});
-        points.push_back(x);
-        weights.push_back(w * area);
-      }
+    for (const BoundaryLoadPoint& q : where) {
+      points.push_back(q.x);
+      weights.push_back(q.weight);
     }
     if (points.empty())
-      throw core::Error("load '" + load.name + "' selects no boundary face of the FEM mesh (face centroids): region " +
+      throw core::Error("load '" + load.name + "' selects no part of the FEM mesh's boundary: region " +
                         load.region.describe());
     const WrenchTraction t = spreadWrench(points, weights, load.force, load.torque, "load '" + load.name + "'");
     for (std::size_t q = 0; q < points.size(); ++q) {
@@ -256,7 +204,6 @@ void FemSolver::Impl::setupLoads() {
     }
   }
 }
-
 
 template <int N>
 double FemSolver::Impl::elementEnergy(const Eigen::VectorXd& x, int e) const {
@@ -274,7 +221,7 @@ double FemSolver::Impl::elementEnergy(const Eigen::VectorXd& x, int e) const {
 double FemSolver::Impl::energy(const Eigen::VectorXd& x, double scale) const {
   const int n_el = static_cast<int>(mesh.elements.size());
   std::vector<double> psi(n_el);
-  parallelFor(n_el, threads, [&](int begin, int end) {
+  parallelFor(n_el, threads, [&](long begin, long end) {
     for (int e = begin; e < end; ++e) psi[e] = n == 4 ? elementEnergy<4>(x, e) : elementEnergy<10>(x, e);
   });
   // Summed in element order whatever the thread count.
@@ -294,7 +241,7 @@ double FemSolver::Impl::assembleT(const Eigen::VectorXd& x, const Eigen::VectorX
   for (const std::vector<int>& colour : colours) {
     // No two elements of a colour share a node, so their scatters never touch the same entry and
     // every entry receives its contributions in colour order: deterministic for any thread count.
-    parallelFor(static_cast<int>(colour.size()), threads, [&](int begin, int end) {
+    parallelFor(static_cast<int>(colour.size()), threads, [&](long begin, long end) {
       Eigen::Matrix<double, M, 1> fe;
       ElementMatrix Ke;
       for (int k = begin; k < end; ++k) {

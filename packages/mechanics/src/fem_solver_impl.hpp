@@ -65,6 +65,7 @@ struct FemSolver::Impl {
 
   void setup();
   void setupLoads();
+
   void setupPattern();
   void buildGrid();
   double energy(const Eigen::VectorXd& x, double scale) const;

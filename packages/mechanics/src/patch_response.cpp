@@ -44,7 +44,7 @@ PatchResponse::PatchResponse(core::ParticleCloud cloud, core::Scenario base, cor
   if (!(config_.force_range > 0.0) || !(config_.torque_range >= 0.0) || !std::isfinite(config_.force_range) ||
       !std::isfinite(config_.torque_range))
     throw core::Error("patch response: force_range must be > 0 and torque_range >= 0 (finite)");
-  if (dem_.parametric) throw core::Error("patch response: superposes grid-Newton solves; parametric mode does not apply");
+  if (dem_.parametric.enabled) throw core::Error("patch response: superposes grid-Newton solves; parametric mode does not apply");
   cloud_.validate();
   validateProblem(scenarioFor(Eigen::Vector3d(config_.force_range, 0, 0), Eigen::Vector3d::Zero()), cloud_);
 }

@@ -3,189 +3,19 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
-#include <cmath>
-#include <cstdio>
 #include <fstream>
-#include <functional>
 #include <limits>
 #include <sstream>
 #include <utility>
 
+#include "config_table.hpp"
 #include "demnerf/core/error.hpp"
 
 namespace demnerf::mechanics {
 namespace {
 
 using core::Error;
-
-// One row per key: where it lives, what it means, and how it is read (returning what is wrong with
-// a value, empty when it was taken) and written. One table drives reading, writing and the key
-// list, so the example file, the loader and the tests cannot disagree.
-struct Field {
-  std::string section;  ///< "" for a top-level key
-  std::string key;
-  std::string meaning;
-  std::function<std::string(const YAML::Node&)> read;
-  std::function<std::string()> write;
-};
-
-std::string formatNumber(double value) {
-  char text[64];
-  std::snprintf(text, sizeof text, "%.15g", value);
-  return text;
-}
-
-constexpr double kInf = std::numeric_limits<double>::infinity();
-
-Field integer(std::string section, std::string key, int& field, int lo, int hi, std::string meaning) {
-  return {std::move(section), std::move(key), std::move(meaning),
-          [&field, lo, hi](const YAML::Node& node) -> std::string {
-            const std::string range = hi == std::numeric_limits<int>::max()
-                                          ? ">= " + std::to_string(lo)
-                                          : "in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
-            long long value = 0;
-            try {
-              value = node.as<long long>();
-            } catch (const YAML::Exception&) {
-              return "must be an integer " + range + ", got '" + YAML::Dump(node) + "'";
-            }
-            if (value < lo || value > hi) return "must be an integer " + range + ", got " + std::to_string(value);
-            field = static_cast<int>(value);
-            return "";
-          },
-          [&field] { return std::to_string(field); }};
-}
-
-/// A finite number in [lo, hi] (lo excluded when `lo_open`).
-Field number(std::string section, std::string key, double& field, double lo, bool lo_open, double hi,
-             std::string meaning) {
-  return {std::move(section), std::move(key), std::move(meaning),
-          [&field, lo, lo_open, hi](const YAML::Node& node) -> std::string {
-            std::string range = std::isinf(hi) ? (lo_open ? "> " : ">= ") + formatNumber(lo)
-                                               : std::string(lo_open ? "in (" : "in [") + formatNumber(lo) + ", " +
-                                                     formatNumber(hi) + "]";
-            if (std::isinf(lo) && std::isinf(hi)) range = "(finite)";
-            double value = 0.0;
-            try {
-              value = node.as<double>();
-            } catch (const YAML::Exception&) {
-              return "must be a number " + range + ", got '" + YAML::Dump(node) + "'";
-            }
-            if (!std::isfinite(value) || value < lo || (lo_open && value == lo) || value > hi)
-              return "must be a number " + range + ", got " + YAML::Dump(node);
-            field = value;
-            return "";
-          },
-          [&field] { return formatNumber(field); }};
-}
-
-Field flag(std::string section, std::string key, bool& field, std::string meaning) {
-  return {std::move(section), std::move(key), std::move(meaning),
-          [&field](const YAML::Node& node) -> std::string {
-            try {
-              field = node.as<bool>();
-            } catch (const YAML::Exception&) {
-              return "must be true or false, got '" + YAML::Dump(node) + "'";
-            }
-            return "";
-          },
-          [&field] { return std::string(field ? "true" : "false"); }};
-}
-
-/// A string or an enum spelled as one of `names` (in the order of `values`).
-template <class T>
-Field choice(std::string section, std::string key, T& field, std::vector<std::pair<std::string, T>> names,
-             std::string meaning) {
-  std::string list;
-  for (const auto& n : names) list += (list.empty() ? "" : ", ") + n.first;
-  return {std::move(section), std::move(key), std::move(meaning) + " (" + list + ")",
-          [&field, names, list](const YAML::Node& node) -> std::string {
-            std::string value;
-            try {
-              value = node.as<std::string>();
-            } catch (const YAML::Exception&) {
-              return "must be one of " + list + ", got '" + YAML::Dump(node) + "'";
-            }
-            for (const auto& n : names)
-              if (n.first == value) {
-                field = n.second;
-                return "";
-              }
-            return "must be one of " + list + ", got '" + value + "'";
-          },
-          [&field, names] {
-            for (const auto& n : names)
-              if (n.second == field) return n.first;
-            return std::string("?");
-          }};
-}
-
-std::vector<std::pair<std::string, std::string>> words(std::initializer_list<const char*> list) {
-  std::vector<std::pair<std::string, std::string>> out;
-  for (const char* w : list) out.emplace_back(w, w);
-  return out;
-}
-
-std::vector<Field> demFields(DemConfig& c) {
-  const std::string s = "dem";
-  const int many = std::numeric_limits<int>::max();
-  using B = DemConfig::Boundary;
-  using Q = DemConfig::GridQuadrature;
-  return {
-      integer(s, "width", c.width, 1, many, "hidden units per layer of the MLP"),
-      integer(s, "depth", c.depth, 1, many, "hidden layers of the MLP"),
-      choice(s, "activation", c.activation, words({"tanh", "sigmoid", "softplus", "sin"}), "MLP activation"),
-      choice<B>(s, "boundary", c.boundary, {{"exact", B::kExact}, {"penalty", B::kPenalty}},
-                "fixtures held exactly, u = g + D z, or by the paper's penalty W_u MSE_u"),
-      number(s, "penalty_weight", c.penalty_weight, 0, true, kInf, "W_u of the penalty boundary"),
-      integer(s, "adam_iterations", c.adam_iterations, 0, many, "Adam steps per load step (0: grid Newton only)"),
-      number(s, "adam_learning_rate", c.adam_learning_rate, 0, true, kInf, "Adam's initial learning rate"),
-      number(s, "adam_final_rate_ratio", c.adam_final_rate_ratio, 0, true, 1, "learning rate at a step's end / start"),
-      integer(s, "rescale_every", c.rescale_every, 0, many, "output amplitude line search every N Adam steps (0: never)"),
-      integer(s, "rescale_until", c.rescale_until, 0, many, "...during the first N Adam steps"),
-      flag(s, "output_newton", c.output_newton, "Newton on the MLP's output layer (exact boundary, no grid)"),
-      integer(s, "newton_every", c.newton_every, 0, many, "output-layer Newton every N Adam steps (0: only after)"),
-      integer(s, "newton_iterations", c.newton_iterations, 0, many, "output-layer Newton iterations"),
-      number(s, "grid_cell", c.grid_cell, 0, false, kInf, "feature grid cell edge in m (0: from grid_spacings)"),
-      number(s, "grid_spacings", c.grid_spacings, 0, false, kInf,
-             "feature grid cell in particle spacings (0 with grid_cell 0: MLP alone)"),
-      integer(s, "grid_degree", c.grid_degree, 1, 3, "B-spline degree of the feature grid"),
-      integer(s, "grid_newton_iterations", c.grid_newton_iterations, 0, many, "Newton iterations of the grid solve"),
-      number(s, "grid_refine_band", c.grid_refine_band, 0, false, kInf,
-             "cells near fixtures/loads whose particles are split 2x2x2"),
-      number(s, "grid_surface_share", c.grid_surface_share, 0, false, 1,
-             "share of energyWeights() in the grid quadrature weights (particles quadrature)"),
-      choice<Q>(s, "grid_quadrature", c.grid_quadrature, {{"cells", Q::kCells}, {"particles", Q::kParticles}},
-                "grid Newton quadrature: Gauss points in the cells inside the body, or the particles"),
-      integer(s, "grid_gauss_points", c.grid_gauss_points, 1, 3, "Gauss points per axis and cell (cells quadrature)"),
-      integer(s, "grid_boundary_levels", c.grid_boundary_levels, 0, 4,
-              "times a cut cell is split 2x2x2 before moment fitting (cells quadrature)"),
-      number(s, "grid_body_cells", c.grid_body_cells, 0, false, kInf,
-             "cells the body's volume holds, sizing the grid (0: from grid_cell or grid_spacings)"),
-      number(s, "grid_extension_fill", c.grid_extension_fill, 0, false, 1,
-             "nodes touching no cell filled this much are extrapolated (extended B-splines; 0: off)"),
-      integer(s, "load_steps", c.load_steps, 0, many, "load steps (0: the scenario's, 1 with the grid)"),
-      flag(s, "jitter", c.jitter, "particles near fixtures/loads move within their cell every Adam step"),
-      number(s, "jitter_band", c.jitter_band, 0, false, kInf, "cells from a fixture that are jittered"),
-      integer(s, "lbfgs_iterations", c.lbfgs_iterations, 0, many, "L-BFGS polish per load step (0: off)"),
-      integer(s, "lbfgs_history", c.lbfgs_history, 1, many, "L-BFGS history length"),
-      number(s, "polish_max_energy_drop", c.polish_max_energy_drop, 0, true, kInf,
-             "reject a polish that lowers the energy more than this x |Pi|"),
-      number(s, "polish_max_growth", c.polish_max_growth, 0, true, kInf,
-             "reject a polish that grows max |u| more than this factor"),
-      number(s, "tolerance", c.tolerance, 0, false, kInf, "L-BFGS stops when the loss changes less than this"),
-      integer(s, "max_halvings", c.max_halvings, 0, many, "load-step halvings after a failed step"),
-      integer(s, "threads", c.threads, 0, many, "torch threads (0: 1 below 50k particles, else all cores)"),
-      flag(s, "tune_allocator", c.tune_allocator, "raise glibc's mmap threshold (reuses Adam's buffers)"),
-      flag(s, "parametric", c.parametric, "train over load fractions [load_range_min, load_range_max] (MLP alone)"),
-      number(s, "load_range_min", c.load_range_min, -kInf, false, kInf, "parametric: smallest load fraction"),
-      number(s, "load_range_max", c.load_range_max, -kInf, false, kInf, "parametric: largest load fraction (>= 1)"),
-      integer(s, "parametric_samples", c.parametric_samples, 1, many, "parametric: load fractions per Adam step"),
-      integer(s, "seed", c.seed, std::numeric_limits<int>::min(), many, "random seed"),
-      flag(s, "double_precision", c.double_precision, "float64 instead of float32"),
-      flag(s, "verbose", c.verbose, "print training details"),
-  };
-}
+using namespace config_table;
 
 std::vector<Field> femFields(FemConfig& c) {
   const std::string s = "fem";
@@ -274,32 +104,59 @@ void readField(const Field& field, const YAML::Node& value, const std::string& s
   if (!problem.empty()) throw Error(source + ": '" + name + "' " + problem);
 }
 
+const Field* findField(const std::vector<Field>& table, const std::string& section, const std::string& key) {
+  for (const Field& f : table)
+    if (f.section == section && f.key == key) return &f;
+  return nullptr;
+}
+
+bool isSubsection(const std::vector<Field>& table, const std::string& section) {
+  for (const Field& f : table)
+    if (f.section == section) return true;
+  return false;
+}
+
+/// The keys of one section (or of a part of one: "dem.grid"), recursing into the parts.
+void readSection(const std::string& name, const YAML::Node& node, const std::vector<Field>& table,
+                 const std::string& source) {
+  if (node.IsNull()) return;  // "dem:" with nothing under it
+  if (!node.IsMap()) throw Error(source + ": section '" + name + "' must be a mapping of keys to values");
+  for (const auto& item : node) {
+    const std::string key = item.first.as<std::string>();
+    if (const Field* found = findField(table, name, key)) {
+      readField(*found, item.second, source);
+      continue;
+    }
+    // DemConfig's flat keys of files written before it had parts, read as their new names: a
+    // scalar "boundary: penalty" is boundary.kind, a mapping "boundary: {kind: penalty}" the part.
+    const std::string renamed = name == "dem" ? renamedDemKey(key) : "";
+    const bool part = isSubsection(table, name + "." + key);
+    if (part && (renamed.empty() || !item.second.IsScalar())) {
+      readSection(name + "." + key, item.second, table, source);
+      continue;
+    }
+    if (!renamed.empty()) {
+      const auto dot = renamed.find('.');
+      readField(*findField(table, "dem." + renamed.substr(0, dot), renamed.substr(dot + 1)), item.second, source);
+      continue;
+    }
+    throw Error(source + ": unknown key '" + name + "." + key +
+                "' (config/solvers.yaml lists every key with its default)");
+  }
+}
+
 void readSections(const YAML::Node& root, const std::vector<Field>& table, const std::string& source) {
   for (const auto& entry : root) {
     const std::string name = entry.first.as<std::string>();
     bool is_section = false;
     for (const std::string& s : sectionNames()) is_section |= s == name;
-    if (!is_section) {
-      const Field* top = nullptr;
-      for (const Field& f : table)
-        if (f.section.empty() && f.key == name) top = &f;
-      if (!top)
-        throw Error(source + ": unknown key '" + name + "' (known: dem, fem, pinn, voxel, control, mesher)");
-      readField(*top, entry.second, source);
+    if (is_section) {
+      readSection(name, entry.second, table, source);
       continue;
     }
-    if (entry.second.IsNull()) continue;  // "dem:" with nothing under it
-    if (!entry.second.IsMap()) throw Error(source + ": section '" + name + "' must be a mapping of keys to values");
-    for (const auto& item : entry.second) {
-      const std::string key = item.first.as<std::string>();
-      const Field* found = nullptr;
-      for (const Field& f : table)
-        if (f.section == name && f.key == key) found = &f;
-      if (!found)
-        throw Error(source + ": unknown key '" + name + "." + key +
-                    "' (config/solvers.yaml lists every key with its default)");
-      readField(*found, item.second, source);
-    }
+    const Field* top = findField(table, "", name);
+    if (!top) throw Error(source + ": unknown key '" + name + "' (known: dem, fem, pinn, voxel, control, mesher)");
+    readField(*top, entry.second, source);
   }
 }
 
@@ -350,11 +207,14 @@ std::string solverConfigYaml(const SimulateOptions& options) {
   std::string section = "-";
   for (const Field& f : fields(copy)) {
     if (f.section != section) {
+      // "dem.grid" is written as "  grid:" under "dem:" (which the "dem" keys opened).
+      const auto dot = f.section.find('.');
+      if (dot == std::string::npos) out << "\n" << (f.section.empty() ? "" : f.section + ":\n");
+      else out << "  " << f.section.substr(dot + 1) << ":\n";
       section = f.section;
-      out << "\n";
-      if (!section.empty()) out << section << ":\n";
     }
-    std::string line = (section.empty() ? "" : "  ") + f.key + ": " + f.write();
+    const std::string indent(section.empty() ? 0 : section.find('.') == std::string::npos ? 2 : 4, ' ');
+    std::string line = indent + f.key + ": " + f.write();
     line.resize(std::max<std::size_t>(line.size() + 1, 40), ' ');
     out << line << "# " << f.meaning << "\n";
   }

@@ -54,10 +54,10 @@ TEST(Dem, UniaxialTractionMatchesTheClosedFormWithExactBoundaries) {
   const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(6, 6, 6));
   const core::Scenario s = uniaxial(2e5);
   dm::DemConfig config;
-  config.grid_body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
-  config.width = 16;
-  config.depth = 2;
-  config.adam_iterations = 1000;
+  config.grid.body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
+  config.network.width = 16;
+  config.network.depth = 2;
+  config.adam.iterations = 1000;
   config.threads = 1;
   dm::DemSolver dem(cloud, s, config);
   const dm::DemReport r = dem.solve();
@@ -81,11 +81,11 @@ TEST(Dem, OutputLayerNewtonAloneSolvesTheUniaxialStretch) {
   const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(6, 6, 6));
   const core::Scenario s = uniaxial(2e5);
   dm::DemConfig config;
-  config.grid_body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
-  config.width = 16;
-  config.depth = 2;
-  config.adam_iterations = 0;
-  config.output_newton = true;
+  config.grid.body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
+  config.network.width = 16;
+  config.network.depth = 2;
+  config.adam.iterations = 0;
+  config.output_newton.enabled = true;
   config.threads = 1;
   dm::DemSolver dem(cloud, s, config);
   const dm::DemReport r = dem.solve();
@@ -103,13 +103,13 @@ TEST(Dem, ParametricModeAnswersEveryLoadInItsRangeWithoutRetraining) {
   const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(6, 6, 6));
   const core::Scenario s = uniaxial(2e5);
   dm::DemConfig config;
-  config.grid_body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
-  config.width = 16;
-  config.depth = 2;
-  config.adam_iterations = 600;
-  config.parametric = true;
-  config.load_range_min = 0.0;
-  config.load_range_max = 1.0;
+  config.grid.body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
+  config.network.width = 16;
+  config.network.depth = 2;
+  config.adam.iterations = 600;
+  config.parametric.enabled = true;
+  config.parametric.load_range_min = 0.0;
+  config.parametric.load_range_max = 1.0;
   config.threads = 1;
   dm::DemSolver dem(cloud, s, config);
   const dm::DemReport r = dem.solve();
@@ -129,14 +129,14 @@ TEST(Dem, ParametricModeAnswersEveryLoadInItsRangeWithoutRetraining) {
   for (const auto& u : dem.predict(cloud.positions, 0.0)) EXPECT_EQ(u.norm(), 0.0);
   EXPECT_THROW(dem.predict(cloud.positions, 1.5), core::Error);
   // A non-parametric network refuses other loads instead of answering wrongly.
-  config.parametric = false;
-  config.adam_iterations = 10;
+  config.parametric.enabled = false;
+  config.adam.iterations = 10;
   dm::DemSolver plain(cloud, s, config);
   plain.solve();
   EXPECT_THROW(plain.predict(cloud.positions, 0.5), core::Error);
-  config.parametric = true;
-  config.load_range_min = 0.2;
-  config.load_range_max = 0.8;  // does not contain the scenario's own load
+  config.parametric.enabled = true;
+  config.parametric.load_range_min = 0.2;
+  config.parametric.load_range_max = 0.8;  // does not contain the scenario's own load
   EXPECT_THROW(dm::DemSolver(cloud, s, config), core::Error);
 }
 
@@ -144,11 +144,11 @@ TEST(Dem, UniaxialTractionWithThePenaltyFormulation) {
   const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(6, 6, 6));
   const core::Scenario s = uniaxial(2e5);
   dm::DemConfig config;
-  config.grid_body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
-  config.width = 16;
-  config.depth = 2;
-  config.boundary = dm::DemConfig::Boundary::kPenalty;
-  config.adam_iterations = 1000;
+  config.grid.body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
+  config.network.width = 16;
+  config.network.depth = 2;
+  config.boundary.kind = dm::DemConfig::Boundary::kPenalty;
+  config.adam.iterations = 1000;
   config.threads = 1;
   dm::DemSolver dem(cloud, s, config);
   const dm::DemReport r = dem.solve();
@@ -204,8 +204,8 @@ TEST(Dem, BadInputFailsBeforeTraining) {
   EXPECT_THROW(dm::DemSolver(cloud, s), core::Error);
   s = uniaxial(1e5);
   dm::DemConfig config;
-  config.grid_body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
-  config.activation = "relu6";
+  config.grid.body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
+  config.network.activation = "relu6";
   EXPECT_THROW(dm::DemSolver(cloud, s, config), core::Error);
 }
 
@@ -214,10 +214,10 @@ TEST(Dem, CrushingLoadIsReportedNotReturned) {
   const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(3, 3, 3));
   core::Scenario s = uniaxial(-5e7);
   dm::DemConfig config;
-  config.grid_body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
-  config.width = 8;
-  config.depth = 1;
-  config.adam_iterations = 50;
+  config.grid.body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
+  config.network.width = 8;
+  config.network.depth = 1;
+  config.adam.iterations = 50;
   config.threads = 1;
   config.max_halvings = 1;
   dm::DemSolver dem(cloud, s, config);
@@ -229,12 +229,12 @@ TEST(Dem, CrushingLoadIsReportedNotReturned) {
 TEST(Dem, SavedModelsPredictExactlyAsBeforeAndDamageIsReported) {
   const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(4, 4, 4));
   dm::DemConfig config;
-  config.grid_body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
-  config.width = 8;
-  config.depth = 2;
-  config.adam_iterations = 50;
-  config.parametric = true;
-  config.load_range_max = 1.5;
+  config.grid.body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
+  config.network.width = 8;
+  config.network.depth = 2;
+  config.adam.iterations = 50;
+  config.parametric.enabled = true;
+  config.parametric.load_range_max = 1.5;
   config.threads = 1;
   dm::DemSolver dem(cloud, uniaxial(1e5), config);
   dem.solve();

@@ -104,11 +104,11 @@ TEST(DemGrid, NewtonOnTheGridSolvesTheUniaxialStretch) {
       dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(12, 12, 12));
   const core::Scenario s = dm::uniaxialTractionScenario(2e5);
   dm::DemConfig config;
-  config.width = 8;
-  config.depth = 2;
-  config.adam_iterations = 0;
-  config.grid_cell = 0.34;
-  config.grid_quadrature = dm::DemConfig::GridQuadrature::kParticles;  // the cells' rule: below
+  config.network.width = 8;
+  config.network.depth = 2;
+  config.adam.iterations = 0;
+  config.grid.cell = 0.34;
+  config.grid.quadrature = dm::DemConfig::GridQuadrature::kParticles;  // the cells' rule: below
   config.threads = 1;
   dm::DemSolver dem(cloud, s, config);
   const dm::DemReport r = dem.solve();
@@ -144,10 +144,10 @@ TEST(DemGrid, TwistedBarAgreesWithQuadraticFem) {
   const auto reference = fem.interpolate(cloud.positions).displacement;
 
   dm::DemConfig config;
-  config.width = 8;
-  config.depth = 2;
-  config.adam_iterations = 0;
-  config.grid_cell = 0.015;
+  config.network.width = 8;
+  config.network.depth = 2;
+  config.adam.iterations = 0;
+  config.grid.cell = 0.015;
   config.threads = 1;
   dm::DemSolver dem(cloud, s, config);
   const dm::DemReport r = dem.solve();
@@ -163,10 +163,10 @@ TEST(DemGrid, TwistedBarAgreesWithQuadraticFem) {
 TEST(DemGrid, SavedGridModelsPredictExactlyAsBefore) {
   const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(4, 4, 4));
   dm::DemConfig config;
-  config.width = 8;
-  config.depth = 2;
-  config.adam_iterations = 5;  // the MLP's share is not zero either
-  config.grid_cell = 0.4;
+  config.network.width = 8;
+  config.network.depth = 2;
+  config.adam.iterations = 5;  // the MLP's share is not zero either
+  config.grid.cell = 0.4;
   config.threads = 1;
   dm::DemSolver dem(cloud, dm::uniaxialTractionScenario(1e5), config);
   dem.solve();
@@ -187,23 +187,23 @@ TEST(DemGrid, UnsupportedCombinationsFailBeforeTraining) {
   const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(3, 3, 3));
   const core::Scenario s = dm::uniaxialTractionScenario(1e5);
   dm::DemConfig config;
-  config.grid_cell = 0.4;
-  config.parametric = true;
+  config.grid.cell = 0.4;
+  config.parametric.enabled = true;
   EXPECT_THROW(dm::DemSolver(cloud, s, config), core::Error);
-  config.parametric = false;
-  config.boundary = dm::DemConfig::Boundary::kPenalty;
+  config.parametric.enabled = false;
+  config.boundary.kind = dm::DemConfig::Boundary::kPenalty;
   EXPECT_THROW(dm::DemSolver(cloud, s, config), core::Error);
-  config.boundary = dm::DemConfig::Boundary::kExact;
-  config.grid_cell = -1;
+  config.boundary.kind = dm::DemConfig::Boundary::kExact;
+  config.grid.cell = -1;
   EXPECT_THROW(dm::DemSolver(cloud, s, config), core::Error);
-  config.grid_cell = 0.3;  // the particle spacing: too fine for the particle quadrature
-  config.grid_quadrature = dm::DemConfig::GridQuadrature::kParticles;
+  config.grid.cell = 0.3;  // the particle spacing: too fine for the particle quadrature
+  config.grid.quadrature = dm::DemConfig::GridQuadrature::kParticles;
   EXPECT_THROW(dm::DemSolver(cloud, s, config), core::Error);
-  config.grid_cell = 0.2;  // finer than the particles, which resolve the body for the cells' rule
-  config.grid_quadrature = dm::DemConfig::GridQuadrature::kCells;
+  config.grid.cell = 0.2;  // 0.6 particle spacings: finer than the cells' rule takes (0.75)
+  config.grid.quadrature = dm::DemConfig::GridQuadrature::kCells;
   EXPECT_THROW(dm::DemSolver(cloud, s, config), core::Error);
-  config.grid_cell = 0.4;
-  config.grid_degree = 5;
+  config.grid.cell = 0.4;
+  config.grid.degree = 5;
   EXPECT_THROW(dm::DemSolver(cloud, s, config), core::Error);
 }
 
@@ -212,11 +212,11 @@ TEST(DemGrid, NewtonThatDoesNotConvergeIsReportedNotReturned) {
   // solve ends in an error that says what to change instead of a half-solved field.
   const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(4, 4, 4));
   dm::DemConfig config;
-  config.width = 8;
-  config.depth = 2;
-  config.adam_iterations = 0;
-  config.grid_cell = 0.5;
-  config.grid_newton_iterations = 1;
+  config.network.width = 8;
+  config.network.depth = 2;
+  config.adam.iterations = 0;
+  config.grid.cell = 0.5;
+  config.grid.newton_iterations = 1;
   config.max_halvings = 2;
   config.threads = 1;
   dm::DemSolver dem(cloud, dm::uniaxialTractionScenario(1e5), config);
@@ -260,12 +260,12 @@ TEST(DemGrid, SimpleShearMatchesTheClosedFormWithAndWithoutTheGrid) {
     const core::ParticleCloud cloud =
         dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(n, n, n));
     dm::DemConfig config;
-    config.width = 16;
-    config.depth = 2;
-    config.adam_iterations = grid ? 0 : 300;
-    config.grid_cell = grid ? 0.34 : 0.0;
-    config.grid_quadrature = dm::DemConfig::GridQuadrature::kParticles;
-    config.grid_body_cells = 0.0;  // without grid_cell: the MLP alone
+    config.network.width = 16;
+    config.network.depth = 2;
+    config.adam.iterations = grid ? 0 : 300;
+    config.grid.cell = grid ? 0.34 : 0.0;
+    config.grid.quadrature = dm::DemConfig::GridQuadrature::kParticles;
+    config.grid.body_cells = 0.0;  // without grid_cell: the MLP alone
     config.threads = 1;
     dm::DemSolver dem(cloud, s, config);
     const dm::DemReport r = dem.solve();
@@ -283,7 +283,7 @@ TEST(DemGrid, SolveControlStopsReportsAndKeepsTheLastGoodState) {
   const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(8, 8, 8));
   const core::Scenario s = dm::uniaxialTractionScenario(2e5);
   dm::DemConfig config;
-  config.grid_cell = 0.25;
+  config.grid.cell = 0.25;
   config.threads = 1;
   // Progress reaches the sink with the fields filled; the answer is a checked equilibrium.
   {

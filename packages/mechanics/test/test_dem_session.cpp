@@ -42,13 +42,13 @@ TEST(DemSession, LoadScaleIsFoundOnlyForAPureScaling) {
 
 TEST(DemSession, ScaledLoadsAreAnsweredInstantlyOthersWarmStarted) {
   dm::DemConfig config;
-  config.grid_body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
-  config.width = 16;
-  config.depth = 2;
-  config.adam_iterations = 300;
-  config.parametric = true;
-  config.load_range_min = 0.0;
-  config.load_range_max = 1.5;
+  config.grid.body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
+  config.network.width = 16;
+  config.network.depth = 2;
+  config.adam.iterations = 300;
+  config.parametric.enabled = true;
+  config.parametric.load_range_min = 0.0;
+  config.parametric.load_range_max = 1.5;
   config.threads = 1;
   dm::DemSession session(config);
   EXPECT_THROW(session.answer(dm::uniaxialTractionScenario(2e5)), core::Error);  // no particles yet

@@ -170,10 +170,10 @@ TEST(Simulate, FemMeshesFromTheBodyReportsAndStopsOnTime) {
 TEST(Simulate, DemGivesOneRowPerParticleInOrder) {
   const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(3, 3, 3));
   dm::SimulateOptions options;
-  options.dem.width = 8;
-  options.dem.depth = 1;
-  options.dem.adam_iterations = 30;
-  options.dem.grid_body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
+  options.dem.network.width = 8;
+  options.dem.network.depth = 1;
+  options.dem.adam.iterations = 30;
+  options.dem.grid.body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
   options.dem.threads = 1;
   const dm::SimulationOutcome out = dm::simulate(cloud, uniaxial(1e5, 1.0), dm::SolverChoice::kDem, options);
   ASSERT_EQ(out.field.size(), cloud.size());

@@ -40,8 +40,15 @@ TEST(SolverConfig, ShippedExampleListsEveryKeyAtItsDefault) {
       << "config/solvers.yaml is not at the defaults: regenerate it with `demnerf simulate --print-config`";
   const YAML::Node root = YAML::LoadFile(kShipped);
   for (const std::string& key : dm::solverConfigKeys()) {
-    const auto dot = key.find('.');
-    const YAML::Node node = dot == std::string::npos ? root[key] : root[key.substr(0, dot)][key.substr(dot + 1)];
+    // "dem.grid.cell" is root["dem"]["grid"]["cell"].
+    YAML::Node node = YAML::Clone(root);
+    std::size_t begin = 0;
+    while (node.IsDefined()) {
+      const std::size_t dot = key.find('.', begin);
+      node.reset(node[key.substr(begin, dot == std::string::npos ? std::string::npos : dot - begin)]);
+      if (dot == std::string::npos) break;
+      begin = dot + 1;
+    }
     EXPECT_TRUE(node.IsDefined() && node.IsScalar()) << "config/solvers.yaml lacks " << key;
   }
 }
@@ -49,9 +56,9 @@ TEST(SolverConfig, ShippedExampleListsEveryKeyAtItsDefault) {
 TEST(SolverConfig, WrittenSettingsReadBackTheSame) {
   dm::SimulateOptions options;
   options.dem = dm::paperDemConfig();
-  options.dem.jitter_band = 2.5;
-  options.dem.tolerance = 3e-11;
-  options.dem.seed = -7;
+  options.dem.adam.jitter_band = 2.5;
+  options.dem.lbfgs.tolerance = 3e-11;
+  options.dem.network.seed = -7;
   options.fem.linear_solver = dm::FemConfig::LinearSolver::kConjugateGradient;
   options.fem.ordering = dm::FemConfig::Ordering::kNestedDissection;
   options.pinn.activation = "sin";
@@ -62,9 +69,9 @@ TEST(SolverConfig, WrittenSettingsReadBackTheSame) {
   const std::string text = dm::solverConfigYaml(options);
   const dm::SimulateOptions back = dm::parseSolverConfig(text, "written");
   EXPECT_EQ(dm::solverConfigYaml(back), text);
-  EXPECT_EQ(back.dem.boundary, dm::DemConfig::Boundary::kPenalty);
-  EXPECT_EQ(back.dem.tolerance, 3e-11);
-  EXPECT_EQ(back.dem.seed, -7);
+  EXPECT_EQ(back.dem.boundary.kind, dm::DemConfig::Boundary::kPenalty);
+  EXPECT_EQ(back.dem.lbfgs.tolerance, 3e-11);
+  EXPECT_EQ(back.dem.network.seed, -7);
   EXPECT_EQ(back.fem.linear_solver, dm::FemConfig::LinearSolver::kConjugateGradient);
   EXPECT_EQ(back.pinn.activation, "sin");
   EXPECT_EQ(back.voxel.cell, 0.0125);
@@ -75,18 +82,18 @@ TEST(SolverConfig, WrittenSettingsReadBackTheSame) {
 
 TEST(SolverConfig, AFileChangesOnlyTheKeysItNames) {
   dm::SimulateOptions base;
-  base.dem.width = 17;  // not in the file: kept
+  base.dem.network.width = 17;  // not in the file: kept
   const dm::SimulateOptions o = dm::parseSolverConfig(
       "dem: {grid_spacings: 0, adam_iterations: 300, boundary: penalty}\n"
       "fem:\n  ordering: nested_dissection\n  threads: 2\n"
       "pinn:\n"
       "voxel: {order: 1}\nmesher: voxel\ncontrol: {time_limit: 5.5}\n",
       "partial", base);
-  EXPECT_EQ(o.dem.width, 17);
-  EXPECT_EQ(o.dem.grid_spacings, 0.0);
-  EXPECT_EQ(o.dem.adam_iterations, 300);
-  EXPECT_EQ(o.dem.boundary, dm::DemConfig::Boundary::kPenalty);
-  EXPECT_EQ(o.dem.depth, dm::DemConfig{}.depth);
+  EXPECT_EQ(o.dem.network.width, 17);
+  EXPECT_EQ(o.dem.grid.spacings, 0.0);
+  EXPECT_EQ(o.dem.adam.iterations, 300);
+  EXPECT_EQ(o.dem.boundary.kind, dm::DemConfig::Boundary::kPenalty);
+  EXPECT_EQ(o.dem.network.depth, dm::DemConfig{}.network.depth);
   EXPECT_EQ(o.fem.ordering, dm::FemConfig::Ordering::kNestedDissection);
   EXPECT_EQ(o.fem.threads, 2);
   EXPECT_EQ(o.fem.linear_solver, dm::FemConfig{}.linear_solver);
@@ -99,6 +106,29 @@ TEST(SolverConfig, AFileChangesOnlyTheKeysItNames) {
   EXPECT_EQ(dm::solverConfigYaml(dm::parseSolverConfig("", "empty", base)), dm::solverConfigYaml(base));
 }
 
+TEST(SolverConfig, NestedKeysAndTheEarlierFlatKeysReadTheSame) {
+  const dm::SimulateOptions nested = dm::parseSolverConfig(
+      "dem:\n  load_steps: 3\n  grid: {cell: 0.02, quadrature: particles}\n  adam: {iterations: 40, jitter: false}\n"
+      "  network: {width: 12}\n  boundary: {kind: penalty}\n  parametric: {samples: 7}\n",
+      "nested");
+  EXPECT_EQ(nested.dem.load_steps, 3);
+  EXPECT_EQ(nested.dem.grid.cell, 0.02);
+  EXPECT_EQ(nested.dem.grid.quadrature, dm::DemConfig::GridQuadrature::kParticles);
+  EXPECT_EQ(nested.dem.adam.iterations, 40);
+  EXPECT_FALSE(nested.dem.adam.jitter);
+  EXPECT_EQ(nested.dem.network.width, 12);
+  EXPECT_EQ(nested.dem.boundary.kind, dm::DemConfig::Boundary::kPenalty);
+  EXPECT_EQ(nested.dem.parametric.samples, 7);
+  // Files written before DemConfig had parts spell the same settings flat.
+  const dm::SimulateOptions flat = dm::parseSolverConfig(
+      "dem: {load_steps: 3, grid_cell: 0.02, grid_quadrature: particles, adam_iterations: 40, jitter: false,\n"
+      "      width: 12, boundary: penalty, parametric_samples: 7}\n",
+      "flat");
+  EXPECT_EQ(dm::solverConfigYaml(flat), dm::solverConfigYaml(nested));
+  EXPECT_NE(errorOf("dem: {grid: {cel: 1}}").find("unknown key 'dem.grid.cel'"), std::string::npos);
+  EXPECT_NE(errorOf("dem: {grid: 3}").find("section 'dem.grid' must be a mapping"), std::string::npos);
+}
+
 TEST(SolverConfig, BadFilesAreRejectedNamingTheFileAndTheKey) {
   struct Case {
     const char* text;
@@ -107,17 +137,17 @@ TEST(SolverConfig, BadFilesAreRejectedNamingTheFileAndTheKey) {
   const Case cases[] = {
       {"dem: {widht: 8}", "bad.yaml: unknown key 'dem.widht'"},
       {"solver: {width: 8}", "bad.yaml: unknown key 'solver'"},
-      {"dem: {width: 0}", "bad.yaml: 'dem.width' must be an integer >= 1, got 0"},
-      {"dem: {width: eight}", "bad.yaml: 'dem.width' must be an integer >= 1, got 'eight'"},
-      {"dem: {width: 1.5}", "'dem.width' must be an integer"},
-      {"dem: {grid_degree: 4}", "'dem.grid_degree' must be an integer in [1, 3], got 4"},
-      {"dem: {grid_surface_share: 1.5}", "'dem.grid_surface_share' must be a number in [0, 1]"},
-      {"dem: {adam_learning_rate: 0}", "'dem.adam_learning_rate' must be a number > 0"},
-      {"dem: {boundary: soft}", "'dem.boundary' must be one of exact, penalty, got 'soft'"},
-      {"dem: {activation: relu}", "'dem.activation' must be one of tanh, sigmoid, softplus, sin"},
-      {"dem: {jitter: maybe}", "'dem.jitter' must be true or false"},
-      {"dem: {load_range_max: .inf}", "'dem.load_range_max' must be a number"},
-      {"dem: {width: [1, 2]}", "'dem.width' must be an integer"},
+      {"dem: {width: 0}", "bad.yaml: 'dem.network.width' must be an integer >= 1, got 0"},
+      {"dem: {width: eight}", "bad.yaml: 'dem.network.width' must be an integer >= 1, got 'eight'"},
+      {"dem: {width: 1.5}", "'dem.network.width' must be an integer"},
+      {"dem: {grid_degree: 4}", "'dem.grid.degree' must be an integer in [1, 3], got 4"},
+      {"dem: {grid_surface_share: 1.5}", "'dem.grid.surface_share' must be a number in [0, 1]"},
+      {"dem: {adam_learning_rate: 0}", "'dem.adam.learning_rate' must be a number > 0"},
+      {"dem: {boundary: soft}", "'dem.boundary.kind' must be one of exact, penalty, got 'soft'"},
+      {"dem: {activation: relu}", "'dem.network.activation' must be one of tanh, sigmoid, softplus, sin"},
+      {"dem: {jitter: maybe}", "'dem.adam.jitter' must be true or false"},
+      {"dem: {load_range_max: .inf}", "'dem.parametric.load_range_max' must be a number"},
+      {"dem: {width: [1, 2]}", "'dem.network.width' must be an integer"},
       {"fem: {linear_solver: lu}", "'fem.linear_solver' must be one of ldlt, cg, got 'lu'"},
       {"pinn: {activation: sigmoid}", "'pinn.activation' must be one of tanh, sin, softplus"},
       {"voxel: {order: 3}", "'voxel.order' must be an integer in [1, 2], got 3"},
@@ -137,24 +167,24 @@ TEST(SolverConfig, BadFilesAreRejectedNamingTheFileAndTheKey) {
 TEST(SolverConfig, TheDefaultDemIsTheFeatureGridAndThePaperDemTheMlp) {
   const dm::DemConfig grid = dm::demConfigForMethod("grid");
   EXPECT_EQ(dm::solverConfigYaml(dm::solverDefaults()), dm::solverConfigYaml(dm::SimulateOptions{}));
-  EXPECT_EQ(grid.grid_body_cells, 600.0);
-  EXPECT_EQ(grid.grid_quadrature, dm::DemConfig::GridQuadrature::kCells);
-  EXPECT_GT(grid.grid_extension_fill, 0.0);
-  EXPECT_EQ(grid.adam_iterations, 0);
-  EXPECT_EQ(grid.boundary, dm::DemConfig::Boundary::kExact);
+  EXPECT_EQ(grid.grid.body_cells, 600.0);
+  EXPECT_EQ(grid.grid.quadrature, dm::DemConfig::GridQuadrature::kCells);
+  EXPECT_GT(grid.grid.extension_fill, 0.0);
+  EXPECT_EQ(grid.adam.iterations, 0);
+  EXPECT_EQ(grid.boundary.kind, dm::DemConfig::Boundary::kExact);
   const dm::DemConfig mlp = dm::demConfigForMethod("mlp");
-  EXPECT_EQ(mlp.grid_spacings, 0.0);
-  EXPECT_EQ(mlp.grid_body_cells, 0.0);
-  EXPECT_EQ(mlp.grid_cell, 0.0);
-  EXPECT_GT(mlp.adam_iterations, 0);
-  EXPECT_EQ(mlp.boundary, dm::DemConfig::Boundary::kPenalty);
+  EXPECT_EQ(mlp.grid.spacings, 0.0);
+  EXPECT_EQ(mlp.grid.body_cells, 0.0);
+  EXPECT_EQ(mlp.grid.cell, 0.0);
+  EXPECT_GT(mlp.adam.iterations, 0);
+  EXPECT_EQ(mlp.boundary.kind, dm::DemConfig::Boundary::kPenalty);
   EXPECT_THROW(dm::demConfigForMethod("grids"), core::Error);
   const dm::DemConfig parametric = dm::parametricDemConfig(grid);
-  EXPECT_TRUE(parametric.parametric);
-  EXPECT_EQ(parametric.grid_spacings, 0.0);
-  EXPECT_EQ(parametric.grid_body_cells, 0.0);
-  EXPECT_EQ(parametric.adam_iterations, mlp.adam_iterations);
-  EXPECT_EQ(parametric.boundary, dm::DemConfig::Boundary::kExact);
+  EXPECT_TRUE(parametric.parametric.enabled);
+  EXPECT_EQ(parametric.grid.spacings, 0.0);
+  EXPECT_EQ(parametric.grid.body_cells, 0.0);
+  EXPECT_EQ(parametric.adam.iterations, mlp.adam.iterations);
+  EXPECT_EQ(parametric.boundary.kind, dm::DemConfig::Boundary::kExact);
 
   // Each preset is a configuration the solver accepts (the grid alone refuses parametric mode and
   // the penalty boundary).
@@ -163,15 +193,15 @@ TEST(SolverConfig, TheDefaultDemIsTheFeatureGridAndThePaperDemTheMlp) {
   const core::Scenario scenario = dm::uniaxialTractionScenario(1e5);
   for (const dm::DemConfig& config : {grid, mlp, parametric}) EXPECT_NO_THROW(dm::DemSolver(cloud, scenario, config));
   dm::DemConfig broken = grid;
-  broken.parametric = true;
+  broken.parametric.enabled = true;
   EXPECT_THROW(dm::DemSolver(cloud, scenario, broken), core::Error);
 
   // A file applies over the method's preset.
   const std::string path = ::testing::TempDir() + "solver_config_" + std::to_string(::getpid()) + ".yaml";
   std::ofstream(path) << "dem:\n  adam_iterations: 200\ncontrol:\n  time_limit: 0\n";
   const dm::SimulateOptions o = dm::solverDefaults("mlp", path);
-  EXPECT_EQ(o.dem.adam_iterations, 200);
-  EXPECT_EQ(o.dem.boundary, dm::DemConfig::Boundary::kPenalty);
+  EXPECT_EQ(o.dem.adam.iterations, 200);
+  EXPECT_EQ(o.dem.boundary.kind, dm::DemConfig::Boundary::kPenalty);
   EXPECT_EQ(o.control.time_limit, 0.0);
   std::remove(path.c_str());
 }

@@ -9,20 +9,14 @@ namespace demnerf::nerf {
 void compositeForward(const CompositeInputs& in, const CompositeOutputs& out) {
   at::parallel_for(0, in.rays, 256, [&](std::int64_t begin, std::int64_t end) {
     for (std::int64_t r = begin; r < end; ++r) {
-      float transmittance = 1.0f, c[3] = {0, 0, 0}, depth = 0.0f;
+      RayAccum a;
       for (std::int64_t i = in.ray_offsets[r]; i < in.ray_offsets[r + 1]; ++i) {
-        if (transmittance < in.min_transmittance) break;
-        const float alpha = 1.0f - std::exp(-in.sigma[i] * in.dt[i]);
-        const float w = transmittance * alpha;
-        for (int k = 0; k < 3; ++k) c[k] += w * in.rgb[3 * i + k];
-        depth += w * in.t[i];
-        transmittance *= 1.0f - alpha;
+        if (a.transmittance < in.min_transmittance) break;
+        a.add(in.sigma[i], in.dt[i], in.rgb + 3 * i, in.t[i]);
       }
-      for (int k = 0; k < 3; ++k) {
-        out.color[3 * r + k] = c[k] + (in.background ? transmittance * in.background[3 * r + k] : 0.0f);
-      }
-      out.opacity[r] = 1.0f - transmittance;
-      out.depth[r] = depth;
+      a.finish(in.background ? in.background + 3 * r : nullptr, out.color + 3 * r);
+      out.opacity[r] = 1.0f - a.transmittance;
+      out.depth[r] = a.depth;
     }
   });
 }
@@ -38,30 +32,21 @@ void compositeBackward(const CompositeInputs& in, const CompositeOutputs& fwd, c
       const float t_final = 1.0f - fwd.opacity[r];
       // What lies behind sample i (later samples plus background) is total minus the
       // running sum up to i: one pass, no per-ray buffers.
-      float transmittance = 1.0f, c[3] = {0, 0, 0}, depth = 0.0f;
+      RayAccum a;
       bool stopped = false;
       for (std::int64_t i = in.ray_offsets[r]; i < in.ray_offsets[r + 1]; ++i) {
-        if (stopped || transmittance < in.min_transmittance) {
+        if (stopped || a.transmittance < in.min_transmittance) {
           stopped = true;
           grad_sigma[i] = 0.0f;
           for (int k = 0; k < 3; ++k) grad_rgb[3 * i + k] = 0.0f;
           continue;
         }
-        const float alpha = 1.0f - std::exp(-in.sigma[i] * in.dt[i]);
-        const float w = transmittance * alpha;
-        const float* ci = in.rgb + 3 * i;
-        for (int k = 0; k < 3; ++k) c[k] += w * ci[k];
-        depth += w * in.t[i];
-        const float t_next = transmittance * (1.0f - alpha);
-        float g = 0.0f;
-        for (int k = 0; k < 3; ++k) {
-          g += gc[k] * (t_next * ci[k] - (fwd.color[3 * r + k] - c[k]));
-          grad_rgb[3 * i + k] = gc[k] * w;
-        }
-        g += gd * (t_next * in.t[i] - (fwd.depth[r] - depth));
+        const float w = a.add(in.sigma[i], in.dt[i], in.rgb + 3 * i, in.t[i]);
+        float g = colorSigmaGradient(gc, in.rgb + 3 * i, a.transmittance, fwd.color + 3 * r, a.color);
+        for (int k = 0; k < 3; ++k) grad_rgb[3 * i + k] = gc[k] * w;
+        g += gd * (a.transmittance * in.t[i] - (fwd.depth[r] - a.depth));
         g += ga * t_final;
         grad_sigma[i] = g * in.dt[i];
-        transmittance = t_next;
       }
     }
   });

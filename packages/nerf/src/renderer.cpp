@@ -8,8 +8,8 @@
 
 namespace demnerf::nerf {
 
-RenderedImage renderImage(const NerfModel& model, const core::PinholeCamera& camera,
-                          const Eigen::Isometry3d& world_from_camera, const Eigen::Vector3f& background) {
+RenderedImage renderView(const Field& field, const MarchScene& scene, const core::PinholeCamera& camera,
+                         const Eigen::Isometry3d& world_from_camera, const Eigen::Vector3f& background) {
   camera.validate();
   const auto start = std::chrono::steady_clock::now();
   const int w = camera.width, h = camera.height;
@@ -41,10 +41,16 @@ RenderedImage renderImage(const NerfModel& model, const core::PinholeCamera& cam
   image.opacity.create(h, w, CV_32FC1);
   const float bg[3] = {background.x(), background.y(), background.z()};
   // cv::Mat::create gives continuous storage, so the buffers are the rays' row-major order.
-  image.samples = renderRays(model, origins.data(), directions.data(), n, bg,
+  image.samples = renderRays(field, scene, origins.data(), directions.data(), n, bg,
                              {image.color.ptr<float>(), image.depth.ptr<float>(), image.opacity.ptr<float>()});
   image.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return image;
+}
+
+RenderedImage renderImage(const NerfModel& model, const core::PinholeCamera& camera,
+                          const Eigen::Isometry3d& world_from_camera, const Eigen::Vector3f& background) {
+  const MarchScene scene{model.renderMarch(), model.grid(), model.bounds(), model.config().march.samples_per_round};
+  return renderView(model.field(), scene, camera, world_from_camera, background);
 }
 
 RenderedImage renderImage(const NerfModel& model, const core::PinholeCamera& camera,

@@ -1,9 +1,6 @@
 #include "demnerf/render/deformed_renderer.hpp"
 
-#include <ATen/Parallel.h>
-
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <sstream>
 
@@ -152,33 +149,6 @@ void rasterise(const nerf::NerfModel& model, const TetEmbedding& emb, nerf::Occu
   }
 }
 
-constexpr int kBlockRays = 64;
-
-/// One round's samples of a block of rays, and the compacted ones that fall inside the body.
-struct Round {
-  std::vector<float> world, t, dt, sigma, rgb;
-  std::vector<int> first, count;
-  std::vector<float> unit, rest, dirs;  ///< compacted inside samples
-  std::vector<int> index;               ///< compacted -> round sample
-  void reserve(int samples) {
-    world.resize(3 * samples);
-    t.resize(samples);
-    dt.resize(samples);
-    sigma.resize(samples);
-    rgb.resize(3 * samples);
-    unit.resize(3 * samples);
-    rest.resize(3 * samples);
-    dirs.resize(3 * samples);
-    index.resize(samples);
-    first.resize(kBlockRays);
-    count.resize(kBlockRays);
-  }
-};
-
-struct RayAccum {
-  float transmittance = 1.0f, color[3] = {0, 0, 0}, depth = 0.0f;
-};
-
 }  // namespace
 
 DeformedScene::DeformedScene(const nerf::NerfModel& model, const core::ResultField& result,
@@ -191,132 +161,17 @@ DeformedScene::DeformedScene(const nerf::NerfModel& model, const core::ResultFie
   // One grid over the deformed body's box: it only needs to hold the body.
   grid_ = nerf::OccupancyGrid(oc, box, model.march().min_step, 1);
   rasterise(model, embedding_, grid_);
+  field_ = std::make_unique<DeformedField>(model, embedding_, box, config.rotate_directions);
+}
+
+nerf::MarchScene DeformedScene::marchScene() const {
+  // The undeformed renderer's marching, so a zero displacement marches the same samples.
+  return {model_.renderMarch(), grid_, grid_.bounds(), model_.config().march.samples_per_round};
 }
 
 nerf::RenderedImage renderDeformed(const DeformedScene& scene, const core::PinholeCamera& camera,
                                    const Eigen::Isometry3d& world_from_camera, const Eigen::Vector3f& background) {
-  camera.validate();
-  const auto start = std::chrono::steady_clock::now();
-  const nerf::NerfModel& model = scene.model();
-  const nerf::NgpField& field = model.field();
-  const nerf::OccupancyGrid& rest_grid = model.grid();
-  const TetEmbedding& emb = scene.embedding();
-  const nerf::MarchParams& mp = model.renderMarch();  // as the undeformed renderer marches
-  const nerf::MarchConfig& mc = model.config().march;
-  const bool rotate = scene.config().rotate_directions;
-  const float min_t = mp.min_transmittance;
-  const int w = camera.width, h = camera.height;
-  const std::int64_t n = static_cast<std::int64_t>(w) * h;
-  const Eigen::Matrix3d rot = world_from_camera.linear();
-  const Eigen::Vector3d origin = world_from_camera.translation();
-
-  nerf::RenderedImage image;
-  image.color.create(h, w, CV_32FC3);
-  image.depth.create(h, w, CV_32FC1);
-  image.opacity.create(h, w, CV_32FC1);
-  float* color_out = image.color.ptr<float>();
-  float* depth_out = image.depth.ptr<float>();
-  float* opacity_out = image.opacity.ptr<float>();
-  const std::int64_t blocks = (n + kBlockRays - 1) / kBlockRays;
-  std::vector<std::int64_t> block_samples(blocks, 0);
-  const int max_per_round = std::max(mc.samples_per_round, 32);
-
-  at::parallel_for(0, blocks, 1, [&](std::int64_t begin, std::int64_t end) {
-    nerf::FieldWorkspace ws;
-    Round round;
-    round.reserve(kBlockRays * max_per_round);
-    std::vector<nerf::RayCursor> cursors(kBlockRays);
-    std::vector<RayAccum> acc(kBlockRays);
-    for (std::int64_t blk = begin; blk < end; ++blk) {
-      const std::int64_t first = blk * kBlockRays;
-      const int rays = static_cast<int>(std::min<std::int64_t>(kBlockRays, n - first));
-      for (int j = 0; j < rays; ++j) {
-        // The undeformed renderer's ray set-up, so both march the same samples.
-        const std::int64_t i = first + j;
-        const int x = static_cast<int>(i % w), y = static_cast<int>(i / w);
-        Eigen::Vector3d d = camera.hasDistortion()
-                                ? camera.unproject(Eigen::Vector2d(x + 0.5, y + 0.5))
-                                : Eigen::Vector3d((x + 0.5 - camera.cx) / camera.fx, (y + 0.5 - camera.cy) / camera.fy, 1.0);
-        const Eigen::Vector3d world = (rot * d).normalized();
-        const float o[3] = {static_cast<float>(origin.x()), static_cast<float>(origin.y()), static_cast<float>(origin.z())};
-        const float dir[3] = {static_cast<float>(world.x()), static_cast<float>(world.y()), static_cast<float>(world.z())};
-        nerf::startRay(mp, scene.bounds(), o, dir, 0.5f, cursors[j]);
-        acc[j] = RayAccum();
-      }
-      int per_ray = mc.samples_per_round;
-      for (;;) {
-        int total = 0;
-        for (int j = 0; j < rays; ++j) {
-          round.first[j] = total;
-          round.count[j] = 0;
-          if (cursors[j].done) continue;
-          const int got = nerf::marchRay(mp, scene.grid(), cursors[j], per_ray, round.world.data() + 3 * total,
-                                         round.t.data() + total, round.dt.data() + total);
-          round.count[j] = got;
-          total += got;
-        }
-        if (total == 0) break;
-        block_samples[blk] += total;
-        // Map samples back to the rest body; those outside it (or where the NeRF itself is
-        // empty, as the undeformed marcher would skip them) get zero density.
-        int inside = 0;
-        for (int j = 0; j < rays; ++j) {
-          for (int s = round.first[j]; s < round.first[j] + round.count[j]; ++s) {
-            round.sigma[s] = 0.0f;
-            const RestPoint rp = emb.locate(round.world.data() + 3 * s);
-            if (rp.tet < 0) continue;
-            const std::int64_t cell = rest_grid.cellOf(rp.rest);
-            if (cell < 0 || !rest_grid.occupied(cell)) continue;
-            for (int a = 0; a < 3; ++a) round.rest[3 * inside + a] = rp.rest[a];
-            if (rotate) {
-              emb.restDirection(rp.tet, cursors[j].direction, round.dirs.data() + 3 * inside);
-            } else {
-              for (int a = 0; a < 3; ++a) round.dirs[3 * inside + a] = cursors[j].direction[a];
-            }
-            round.index[inside++] = s;
-          }
-        }
-        if (inside > 0) {
-          field.toUnit(round.rest.data(), inside, round.unit.data());
-          float sigma[nerf::NgpField::kChunk], rgb[3 * nerf::NgpField::kChunk];
-          for (int c = 0; c < inside; c += nerf::NgpField::kChunk) {
-            const int m = std::min(nerf::NgpField::kChunk, inside - c);
-            field.forwardChunk(round.unit.data() + 3 * c, round.dirs.data() + 3 * c, m, ws, sigma, rgb);
-            for (int k = 0; k < m; ++k) {
-              const int s = round.index[c + k];
-              round.sigma[s] = sigma[k];
-              for (int a = 0; a < 3; ++a) round.rgb[3 * s + a] = rgb[3 * k + a];
-            }
-          }
-        }
-        for (int j = 0; j < rays; ++j) {
-          RayAccum& a = acc[j];
-          for (int s = round.first[j]; s < round.first[j] + round.count[j]; ++s) {
-            if (round.sigma[s] <= 0.0f) continue;
-            const float alpha = 1.0f - std::exp(-round.sigma[s] * round.dt[s]);
-            const float wgt = a.transmittance * alpha;
-            for (int k = 0; k < 3; ++k) a.color[k] += wgt * round.rgb[3 * s + k];
-            a.depth += wgt * round.t[s];
-            a.transmittance *= 1.0f - alpha;
-            if (a.transmittance < min_t) {
-              cursors[j].done = true;
-              break;
-            }
-          }
-        }
-        per_ray = std::min(per_ray * 2, max_per_round);
-      }
-      for (int j = 0; j < rays; ++j) {
-        const std::int64_t r = first + j;
-        for (int k = 0; k < 3; ++k) color_out[3 * r + k] = acc[j].color[k] + acc[j].transmittance * background[k];
-        depth_out[r] = acc[j].depth;
-        opacity_out[r] = 1.0f - acc[j].transmittance;
-      }
-    }
-  });
-  for (std::int64_t s : block_samples) image.samples += s;
-  image.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  return image;
+  return nerf::renderView(scene.field(), scene.marchScene(), camera, world_from_camera, background);
 }
 
 nerf::RenderedImage renderDeformed(const DeformedScene& scene, const core::PinholeCamera& camera,

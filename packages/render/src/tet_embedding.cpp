@@ -32,9 +32,8 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
-}  // namespace
-
-TetEmbedding::TetEmbedding(const core::ResultField& result, const TetEmbeddingConfig& config) {
+/// Refuses results no embedding can be built from, naming the first problem.
+void checkResult(const core::ResultField& result, const TetEmbeddingConfig& config) {
   const std::size_t n = result.positions.size();
   if (n < 4) {
     throw core::Error("deformed render: the result has " + std::to_string(n) +
@@ -53,6 +52,29 @@ TetEmbedding::TetEmbedding(const core::ResultField& result, const TetEmbeddingCo
   if (!(config.max_edge_factor > 0) || !(config.margin_factor >= 0) || !(config.cell_factor > 0)) {
     throw core::Error("deformed render: max_edge_factor and cell_factor must be > 0 and margin_factor >= 0");
   }
+}
+
+/// Median nearest-neighbour distance: nearest neighbours are Delaunay edges.
+double typicalSpacing(const Delaunay& dt, const std::vector<Eigen::Vector3d>& rest) {
+  std::vector<double> nearest(rest.size(), std::numeric_limits<double>::max());
+  for (auto e = dt.finite_edges_begin(); e != dt.finite_edges_end(); ++e) {
+    const int a = e->first->vertex(e->second)->info(), b = e->first->vertex(e->third)->info();
+    const double d = (rest[a] - rest[b]).norm();
+    nearest[a] = std::min(nearest[a], d);
+    nearest[b] = std::min(nearest[b], d);
+  }
+  // Duplicates (d = 0) are merged by CGAL and never appear; unreached vertices keep max.
+  std::vector<double> finite_nearest;
+  for (double d : nearest) if (d < std::numeric_limits<double>::max() && d > 0) finite_nearest.push_back(d);
+  if (finite_nearest.empty()) throw core::Error("deformed render: the result's particles have no neighbours");
+  return median(finite_nearest);
+}
+
+}  // namespace
+
+TetEmbedding::TetEmbedding(const core::ResultField& result, const TetEmbeddingConfig& config) {
+  checkResult(result, config);
+  const std::size_t n = result.positions.size();
   rest_ = result.positions;
   deformed_.resize(n);
   for (std::size_t i = 0; i < n; ++i) deformed_[i] = rest_[i] + result.displacements[i];
@@ -67,72 +89,64 @@ TetEmbedding::TetEmbedding(const core::ResultField& result, const TetEmbeddingCo
     throw core::Error("deformed render: the result's " + std::to_string(n) +
                       " rest positions are coplanar (or duplicates); cannot build tetrahedra");
   }
-  // Nearest neighbours are Delaunay edges, so the typical spacing comes from the edges.
-  std::vector<double> nearest(n, std::numeric_limits<double>::max());
-  for (auto e = dt.finite_edges_begin(); e != dt.finite_edges_end(); ++e) {
-    const int a = e->first->vertex(e->second)->info(), b = e->first->vertex(e->third)->info();
-    const double d = (rest_[a] - rest_[b]).norm();
-    nearest[a] = std::min(nearest[a], d);
-    nearest[b] = std::min(nearest[b], d);
-  }
-  // Duplicates (d = 0) are merged by CGAL and never appear; unreached vertices keep max.
-  std::vector<double> finite_nearest;
-  for (double d : nearest) if (d < std::numeric_limits<double>::max() && d > 0) finite_nearest.push_back(d);
-  if (finite_nearest.empty()) throw core::Error("deformed render: the result's particles have no neighbours");
-  spacing_ = median(finite_nearest);
+  spacing_ = typicalSpacing(dt, rest_);
   margin_ = config.margin_factor * spacing_;
-  const double max_edge = config.max_edge_factor * spacing_;
-
   min_volume_ratio_ = std::numeric_limits<double>::max();
   for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
     std::array<int, 4> v;
     for (int k = 0; k < 4; ++k) v[k] = c->vertex(k)->info();
-    double longest = 0;
-    for (int a = 0; a < 4; ++a)
-      for (int b = a + 1; b < 4; ++b) longest = std::max(longest, (rest_[v[a]] - rest_[v[b]]).norm());
-    if (longest > max_edge) continue;
-    Eigen::Matrix3d rest_edges, def_edges;
-    for (int k = 0; k < 3; ++k) {
-      rest_edges.col(k) = rest_[v[k + 1]] - rest_[v[0]];
-      def_edges.col(k) = deformed_[v[k + 1]] - deformed_[v[0]];
-    }
-    const double rest_volume = rest_edges.determinant() / 6.0;
-    if (std::abs(rest_volume) < config.min_shape * longest * longest * longest) continue;
-    const double def_volume = def_edges.determinant() / 6.0;
-    const double ratio = def_volume / rest_volume;
-    min_volume_ratio_ = std::min(min_volume_ratio_, ratio);
-    // An inverted deformed tetrahedron cannot be inverted back; it would shadow its neighbours.
-    if (!(std::abs(def_volume) > 1e-12 * std::abs(rest_volume)) || ratio <= 0) continue;
-    const Eigen::Matrix3d inv = def_edges.inverse();
-    const Eigen::Matrix3d affine = rest_edges * inv;  // = F^-1
-    const Eigen::Matrix3d f = def_edges * rest_edges.inverse();
-    Eigen::JacobiSVD<Eigen::Matrix3d> svd(f, Eigen::ComputeFullU | Eigen::ComputeFullV);
-    Eigen::Matrix3d u = svd.matrixU();
-    if ((u * svd.matrixV().transpose()).determinant() < 0) u.col(2) = -u.col(2);
-    const Eigen::Matrix3d rotation = u * svd.matrixV().transpose();
-    Map m;
-    for (int a = 0; a < 3; ++a) {
-      m.x0[a] = static_cast<float>(deformed_[v[0]][a]);
-      m.rest0[a] = static_cast<float>(rest_[v[0]][a]);
-      for (int b = 0; b < 3; ++b) {
-        m.inv[3 * a + b] = static_cast<float>(inv(a, b));
-        m.affine[3 * a + b] = static_cast<float>(affine(a, b));
-        m.rotation[3 * a + b] = static_cast<float>(rotation(a, b));
-      }
-    }
-    // b_0 = 1 - b_1 - b_2 - b_3: its gradient is minus the sum of the rows.
-    m.plane_scale[0] = static_cast<float>(1.0 / inv.colwise().sum().norm());
-    for (int k = 0; k < 3; ++k) m.plane_scale[k + 1] = static_cast<float>(1.0 / inv.row(k).norm());
-    tets_.push_back(v);
-    maps_.push_back(m);
+    addTetrahedron(v, config, config.max_edge_factor * spacing_);
   }
   if (tets_.empty()) {
     throw core::Error("deformed render: no tetrahedron of the result's " + std::to_string(n) +
                       " particles is shorter than max_edge_factor " + std::to_string(config.max_edge_factor) +
                       " x spacing " + std::to_string(spacing_) + " m (or all are inverted by the displacement)");
   }
+  buildLocator(config.cell_factor);
+}
 
-  // Locator grid over the deformed tets, each grown by the margin.
+void TetEmbedding::addTetrahedron(const std::array<int, 4>& v, const TetEmbeddingConfig& config, double max_edge) {
+  double longest = 0;
+  for (int a = 0; a < 4; ++a)
+    for (int b = a + 1; b < 4; ++b) longest = std::max(longest, (rest_[v[a]] - rest_[v[b]]).norm());
+  if (longest > max_edge) return;
+  Eigen::Matrix3d rest_edges, def_edges;
+  for (int k = 0; k < 3; ++k) {
+    rest_edges.col(k) = rest_[v[k + 1]] - rest_[v[0]];
+    def_edges.col(k) = deformed_[v[k + 1]] - deformed_[v[0]];
+  }
+  const double rest_volume = rest_edges.determinant() / 6.0;
+  if (std::abs(rest_volume) < config.min_shape * longest * longest * longest) return;
+  const double def_volume = def_edges.determinant() / 6.0;
+  const double ratio = def_volume / rest_volume;
+  min_volume_ratio_ = std::min(min_volume_ratio_, ratio);
+  // An inverted deformed tetrahedron cannot be inverted back; it would shadow its neighbours.
+  if (!(std::abs(def_volume) > 1e-12 * std::abs(rest_volume)) || ratio <= 0) return;
+  const Eigen::Matrix3d inv = def_edges.inverse();
+  const Eigen::Matrix3d affine = rest_edges * inv;  // = F^-1
+  const Eigen::Matrix3d f = def_edges * rest_edges.inverse();
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(f, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d u = svd.matrixU();
+  if ((u * svd.matrixV().transpose()).determinant() < 0) u.col(2) = -u.col(2);
+  const Eigen::Matrix3d rotation = u * svd.matrixV().transpose();
+  Map m;
+  for (int a = 0; a < 3; ++a) {
+    m.x0[a] = static_cast<float>(deformed_[v[0]][a]);
+    m.rest0[a] = static_cast<float>(rest_[v[0]][a]);
+    for (int b = 0; b < 3; ++b) {
+      m.inv[3 * a + b] = static_cast<float>(inv(a, b));
+      m.affine[3 * a + b] = static_cast<float>(affine(a, b));
+      m.rotation[3 * a + b] = static_cast<float>(rotation(a, b));
+    }
+  }
+  // b_0 = 1 - b_1 - b_2 - b_3: its gradient is minus the sum of the rows.
+  m.plane_scale[0] = static_cast<float>(1.0 / inv.colwise().sum().norm());
+  for (int k = 0; k < 3; ++k) m.plane_scale[k + 1] = static_cast<float>(1.0 / inv.row(k).norm());
+  tets_.push_back(v);
+  maps_.push_back(m);
+}
+
+void TetEmbedding::buildLocator(double cell_factor) {
   box_min_ = Eigen::Vector3d::Constant(std::numeric_limits<double>::max());
   box_max_ = -box_min_;
   std::vector<Eigen::Vector3d> lo(tets_.size()), hi(tets_.size());
@@ -147,7 +161,7 @@ TetEmbedding::TetEmbedding(const core::ResultField& result, const TetEmbeddingCo
     box_min_ = box_min_.cwiseMin(lo[t]);
     box_max_ = box_max_.cwiseMax(hi[t]);
   }
-  cell_ = config.cell_factor * spacing_;
+  cell_ = cell_factor * spacing_;
   // Keep the grid to a few million cells whatever the spacing says.
   const Eigen::Vector3d extent = box_max_ - box_min_;
   while ((extent / cell_).array().ceil().prod() > 8e6) cell_ *= 1.5;
@@ -159,6 +173,7 @@ TetEmbedding::TetEmbedding(const core::ResultField& result, const TetEmbeddingCo
       to[a] = std::clamp(static_cast<int>((q[a] - box_min_[a]) / cell_), 0, dims_[a] - 1);
     }
   };
+  // Two passes over the tets: count per cell, then fill the CSR lists.
   std::vector<std::int32_t> counts(cells + 1, 0);
   for (int pass = 0; pass < 2; ++pass) {
     if (pass == 1) {

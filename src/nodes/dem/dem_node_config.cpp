@@ -18,32 +18,36 @@ demnerf::mechanics::SimulateOptions readSolverOptions(const Node& node, const De
     throw Error("parameter ~dem_method must be grid or mlp, got '" + config.dem_method + "'");
   demnerf::mechanics::SimulateOptions options = demnerf::mechanics::solverDefaults(config.dem_method, config.solver_config);
   demnerf::mechanics::DemConfig& dem = options.dem;
-  demnerf::mechanics::DemGridChoice grid;
-  const auto given = [&](const char* name, auto& choice, auto value, auto minimum) {
+  demnerf::mechanics::DemChoice choice;
+  const auto given = [&](const char* name, auto& field, auto value, auto minimum) {
     if (!node.hasParam(name)) return;
     if constexpr (std::is_same_v<decltype(value), int>) readCount(node, name, value, minimum);
     else readNumber(node, name, value, minimum);
-    choice = value;
+    field = value;
   };
-  given("dem_iterations", grid.adam_iterations, dem.adam_iterations, 0);
-  given("dem_grid_cell", grid.cell, dem.grid_cell, 0.0);
-  given("dem_grid_spacings", grid.spacings, dem.grid_spacings, 0.0);
-  given("dem_grid_body_cells", grid.body_cells, dem.grid_body_cells, 0.0);
-  dem = demnerf::mechanics::withGridChoice(dem, grid);
+  given("dem_iterations", choice.adam_iterations, dem.adam.iterations, 0);
+  given("dem_grid_cell", choice.grid_cell, dem.grid.cell, 0.0);
+  given("dem_grid_spacings", choice.grid_spacings, dem.grid.spacings, 0.0);
+  given("dem_grid_body_cells", choice.grid_body_cells, dem.grid.body_cells, 0.0);
   readCount(node, "threads", dem.threads, 0);
   options.pinn.threads = dem.threads;
   readCount(node, "fem_order", options.voxel.order, 1);
   if (options.voxel.order > 2) throw Error("parameter ~fem_order must be 1 or 2");
   readNumber(node, "solve_time_limit", options.control.time_limit, 0.0);
-  node.param("parametric", dem.parametric, dem.parametric);
-  std::vector<double> range{dem.load_range_min, dem.load_range_max};
+  node.param("parametric", dem.parametric.enabled, dem.parametric.enabled);
+  std::vector<double> range{dem.parametric.load_range_min, dem.parametric.load_range_max};
   node.param("load_range", range, range);
   if (range.size() != 2 || !(range[0] < range[1]) || range[0] > 1.0 || range[1] < 1.0)
     throw Error("parameter ~load_range must be [min, max] with min <= 1 <= max (scales of the trained load)");
-  dem.load_range_min = range[0];
-  dem.load_range_max = range[1];
-  // The feature grid does not take the load as an input: parametric mode trains the MLP alone.
-  if (dem.parametric) dem = demnerf::mechanics::parametricDemConfig(dem);
+  dem.parametric.load_range_min = range[0];
+  dem.parametric.load_range_max = range[1];
+  // The library's rules (grid means no Adam unless asked, parametric means the MLP alone), as
+  // `demnerf simulate` applies them to its flags.
+  try {
+    dem = demnerf::mechanics::normalised(dem, choice);
+  } catch (const Error& error) {
+    throw Error(std::string("parameters ~dem_*, ~parametric, ~solver_config: ") + error.what());
+  }
   return options;
 }
 

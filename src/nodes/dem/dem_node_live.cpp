@@ -70,7 +70,7 @@ std::optional<demnerf::mechanics::SimulationOutcome> DemNode::solveWithPatchBasi
     const SolveJob& job, const demnerf::mechanics::SolveControl& control, std::string& how) {
   // The basis superposes grid-Newton solves of one wrench on one patch.
   const demnerf::mechanics::DemConfig& dem = job.settings.options.dem;
-  if (!(patch_basis_config_.force_range > 0.0) || dem.parametric || job.scenario.loads.size() != 1) return std::nullopt;
+  if (!(patch_basis_config_.force_range > 0.0) || dem.parametric.enabled || job.scenario.loads.size() != 1) return std::nullopt;
   const auto start = std::chrono::steady_clock::now();
   std::ostringstream text;
   text.precision(3);

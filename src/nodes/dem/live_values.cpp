@@ -59,7 +59,7 @@ LiveValues liveValuesOf(const LiveSolveSettings& settings) {
   values.youngs_modulus = settings.youngs_modulus;
   values.poisson_ratio = settings.poisson_ratio;
   values.solver = demnerf::mechanics::solverName(settings.solver);
-  values.dem_grid_spacings = settings.options.dem.grid_spacings;
+  values.dem_grid_spacings = settings.options.dem.grid.spacings;
   values.fem_order = settings.options.voxel.order;
   values.solve_time_limit = settings.options.control.time_limit;
   values.load_scale = settings.load_scale;
@@ -88,17 +88,17 @@ LiveSolveSettings withLiveValues(const LiveSolveSettings& current, const LiveVal
   next.options.control.time_limit = values.solve_time_limit;
   const LiveValues before = liveValuesOf(current);
   if (values.dem_grid_spacings != before.dem_grid_spacings) {
-    if (current.options.dem.parametric)
+    if (current.options.dem.parametric.enabled)
       throw Error("dem_grid_spacings does not apply with ~parametric: the parametric DEM is the MLP alone");
     // Spacings rule once set here: a grid given by ~dem_grid_cell or ~dem_grid_body_cells yields.
     // 0 goes back to the default grid, sized from the body (the MLP alone is ~dem_method mlp).
-    next.options.dem.grid_spacings = values.dem_grid_spacings;
-    next.options.dem.grid_cell = 0.0;
-    next.options.dem.grid_body_cells =
-        values.dem_grid_spacings > 0 ? 0.0 : demnerf::mechanics::DemConfig{}.grid_body_cells;
+    next.options.dem.grid.spacings = values.dem_grid_spacings;
+    next.options.dem.grid.cell = 0.0;
+    next.options.dem.grid.body_cells =
+        values.dem_grid_spacings > 0 ? 0.0 : demnerf::mechanics::DemConfig{}.grid.body_cells;
   }
   if (values.youngs_modulus != before.youngs_modulus || values.poisson_ratio != before.poisson_ratio ||
-      next.options.dem.grid_spacings != current.options.dem.grid_spacings)
+      next.options.dem.grid.spacings != current.options.dem.grid.spacings)
     ++next.model_generation;
   return next;
 }

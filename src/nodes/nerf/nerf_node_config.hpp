@@ -10,6 +10,7 @@
 #include "demnerf/geometry/particle_sampler.hpp"
 #include "demnerf/nerf/config.hpp"
 #include "nodes/nerf/frame_intake.hpp"
+#include "pipeline/surface_defaults.hpp"
 
 namespace dem_nerf {
 
@@ -33,8 +34,8 @@ struct NerfNodeConfig {
   std::string model_path;             ///< where the model is saved; resumed from on start if it exists
   std::string nerf_config;            ///< nerf.yaml with the field and training settings (empty: defaults)
   int threads = 0;                    ///< torch threads (0: all cores)
-  int extract_resolution = 128;       ///< density grid for the mesh and particles
-  double surface_opacity = 0.15;      ///< the surface is where the body reaches this opacity seen from outside
+  int extract_resolution = SurfaceDefaults{}.resolution;  ///< density grid cells along the longest side (192)
+  double surface_opacity = SurfaceDefaults{}.opacity;  ///< surface: where the body reaches this opacity from outside (0.15)
   double density_threshold = 0.0;     ///< > 0: a density iso-surface instead (instant-ngp uses 2.5)
   std::string sampler = "poisson";    ///< random | poisson | grid, for ~particles
   double particle_spacing = 0.0;      ///< m; 0: 1/40 of the mesh's bounding-box diagonal

@@ -15,131 +15,101 @@
 
 namespace demnerf::mechanics {
 
-/// The defaults are the product's DEM: a feature grid sized from the body (grid_body_cells),
-/// integrated by Gauss points in its cells wherever the particles say the body is (kCells, so the
-/// sampler does not matter), with extended B-splines at cut cells, solved by Newton
-/// (adam_iterations = 0); paperDemConfig() is the paper's MLP-only DEM. The grid sized in particle
-/// spacings and integrated by the particles (grid_spacings, kParticles) is the earlier default,
-/// right on lattice clouds only: docs/dem_feature_grid.md. `demnerf simulate` and dem_node start
-/// from these (config/solvers.yaml lists every field).
+/// How fixtures are held (DemConfig::Boundary) and how the feature grid is integrated
+/// (DemConfig::GridQuadrature); docs/dem_config.md.
+enum class DemBoundary { kExact, kPenalty };
+enum class DemGridQuadrature { kCells, kParticles };
+
+/// The MLP z(X) of u = g + D z.
+struct DemNetworkConfig {
+  int width = 64;                   ///< hidden units per layer (64)
+  int depth = 3;                    ///< hidden layers (3)
+  std::string activation = "tanh";  ///< tanh | sigmoid | softplus | sin (tanh)
+  int seed = 1;                     ///< random seed of the weights and the jitter (1)
+  bool double_precision = false;    ///< float64 instead of float32 (false)
+};
+
+/// How fixtures are held.
+struct DemBoundaryConfig {
+  DemBoundary kind = DemBoundary::kExact;  ///< kExact: u = g + D z; kPenalty: the paper's W_u MSE_u (kExact)
+  double penalty_weight = 1e4;             ///< W_u of kPenalty, on MSE_u / L^2 with Pi / (mu V) (1e4)
+};
+
+/// Adam on the MLP (and the grid) per load step, full batch.
+struct DemAdamConfig {
+  int iterations = 0;               ///< steps per load step; 0: the grid's Newton alone is the training (0)
+  double learning_rate = 1e-2;      ///< initial rate (1e-2)
+  double final_rate_ratio = 0.02;   ///< the rate decays exponentially to rate x this over a step (0.02)
+  int rescale_every = 25;           ///< output amplitude line search every N steps of the first load step; 0: never (25)
+  int rescale_until = 200;          ///< ...during its first N steps (200)
+  bool jitter = true;               ///< quadrature points move within their cell every step (true)
+  double jitter_band = 1e9;         ///< only particles within this many cells of a fixture jitter (1e9: all)
+};
+
+/// Ritz-Newton on the MLP's output layer with the hidden layers frozen (exact boundary, no grid).
+struct DemOutputNewtonConfig {
+  bool enabled = false;  ///< before, during and after each step's Adam run (false)
+  int every = 0;         ///< also every N Adam steps; 0: only before and after (0)
+  int iterations = 12;   ///< Newton iterations per solve (12)
+};
+
+/// L-BFGS polish per load step on the fixed particles, with the exploit guard.
+struct DemLbfgsConfig {
+  int iterations = 0;              ///< 0: off (0)
+  int history = 50;                ///< history length (50)
+  double max_energy_drop = 10.0;   ///< reject a polish lowering Pi by more than this x |Pi| (10)
+  double max_growth = 10.0;        ///< ...or growing max |u| by more than this factor (10)
+  double tolerance = 1e-10;        ///< stop when the loss changes less than this (1e-10)
+};
+
+/// The B-spline feature grid u = g + D o c (z(X) + N(X) C), C solved by Newton (exact boundary,
+/// not parametric). Its cell: `cell` if > 0, else `spacings` particle spacings if > 0, else
+/// (V / body_cells)^(1/3) if body_cells > 0 (never finer than the particles), else no grid.
+struct DemGridConfig {
+  double cell = 0.0;              ///< cell edge in m (0: from spacings or body_cells)
+  double spacings = 0.0;          ///< cell in particle spacings (0: from body_cells)
+  double body_cells = 600.0;      ///< cells the body's volume holds (600; 0 with the others 0: MLP alone)
+  int degree = 2;                 ///< 1 trilinear, 2 C1 quadratic, 3 C2 cubic (2)
+  DemGridQuadrature quadrature = DemGridQuadrature::kCells;  ///< Gauss points in cells, or the particles (kCells)
+  int gauss_points = 2;           ///< Gauss points per axis and cell, kCells (2)
+  int boundary_levels = 1;        ///< times a cut cell is split 2 x 2 x 2, kCells (1)
+  double extension_fill = 0.75;   ///< nodes touching no cell filled this much are extrapolated; 0: off (0.75)
+  int newton_iterations = 30;     ///< Newton iterations of the grid solve (30)
+  double refine_band = 1.0;       ///< particles within this many cells of a region split 2 x 2 x 2, kParticles (1)
+  double surface_share = 0.04;    ///< share of energyWeights() in the particle weights, kParticles (0.04)
+};
+
+/// Parametric mode: the load fraction s is a network input, u = s (g + D z(X, s)), trained once
+/// over [load_range_min, load_range_max]; the MLP alone (no grid, L-BFGS or output Newton).
+struct DemParametricConfig {
+  bool enabled = false;          ///< (false)
+  double load_range_min = 0.0;   ///< smallest load fraction (0)
+  double load_range_max = 1.0;   ///< largest load fraction, >= 1 (1)
+  int samples = 4;               ///< load fractions drawn per Adam step (4)
+};
+
+/// Every DEM setting, grouped by the part of the solver it steers; the defaults are the product's
+/// DEM (feature grid sized from the body, cell quadrature, Newton, no Adam). Each field: what it
+/// is and its default; why each default is what it is (and the measurements) is in
+/// docs/dem_config.md. config/solvers.yaml lists every key; `demnerf simulate` and dem_node start
+/// from these values.
 struct DemConfig {
-  int width = 64;                      ///< hidden units per layer
-  int depth = 3;                       ///< hidden layers
-  std::string activation = "tanh";     ///< tanh | sigmoid | softplus | sin
-  /// kExact: u = g + D z (fixtures hold by construction). kPenalty: the paper's W_u * MSE_u.
-  enum class Boundary { kExact, kPenalty };
-  Boundary boundary = Boundary::kExact;
-  double penalty_weight = 1e4;         ///< W_u (on MSE_u / L^2, with Pi / (mu V))
-  /// Per load step, full batch (all particles every step). 0 by default: the feature grid's Newton
-  /// solve is the training; paperDemConfig() (the MLP alone) takes 1500.
-  int adam_iterations = 0;
-  double adam_learning_rate = 1e-2;   ///< best of 2e-3 / 5e-3 / 1e-2 on the uniaxial cube
-  /// The rate decays exponentially to adam_learning_rate * adam_final_rate_ratio over a load step.
-  double adam_final_rate_ratio = 0.02;
-  /// The network's output amplitude is refitted by a 1-D energy line search at these Adam
-  /// iterations of the first load step (0: never). The a-priori displacement scale (traction /
-  /// stiffness x size) can be 100x off for slender bodies (torsion), and Adam cannot grow the
-  /// output layer 100x in a few hundred steps.
-  int rescale_every = 25;
-  int rescale_until = 200;
-  /// Ritz-Newton on the output layer (exact boundary mode): before, every newton_every Adam
-  /// iterations during (0: never), and after each load step's Adam run, the output layer is
-  /// solved by Newton's method with the hidden layers frozen (output_layer_newton.hpp), and the
-  /// amplitude line search (rescale_every) is skipped. With adam_iterations = 0 this is a pure
-  /// Ritz solve in the network's basis: the uniaxial cube to 0.5 % in 0.01 s, and the fast
-  /// re-solve for new loads (solveInBasis). Off by default: on the T-bar twist a random basis is
-  /// too stiff (51 % error) and Adam steps after a Newton solve invert particles unless the rate is
-  /// cut 100x (notes in README "Mechanics").
-  bool output_newton = false;
-  int newton_every = 0;
-  int newton_iterations = 12;
-  /// Feature grid (exact boundary mode, not parametric; 0: off): a B-spline grid
-  /// (bspline_grid.hpp) with cells of this edge (m) whose coefficients C join the network's
-  /// output, u = g + D o c (z(X) + N(X) C), like the multiresolution grids of an instant-NGP
-  /// field. C is solved by Newton's method with the MLP frozen (grid_field_newton.hpp) before and
-  /// after each load step's Adam run, and trained with the MLP by Adam in between. Local support is
-  /// what the twist needs: the warping of a square section and the clamp's boundary layer (T-bar
-  /// twist: 1.8 % in 3.9 s at 15 mm cells, where the MLP alone reaches 22 % in 20 s; README
-  /// "Mechanics").
-  double grid_cell = 0.0;
-  /// With grid_cell 0: a grid of cells this many particle spacings wide (the cube root of the 90th
-  /// percentile of the particle volumes; 2 suits the particle quadrature). 0 (default): the grid
-  /// follows grid_body_cells; no grid at all (the MLP alone) when that is 0 too.
-  double grid_spacings = 0.0;
-  int grid_degree = 2;  ///< 1 (trilinear), 2 (C1 quadratic) or 3 (C2 cubic)
-  int grid_newton_iterations = 30;
-  /// Newton has no jitter (below): for its fixed quadrature, particles within this many grid
-  /// cells of a fixture's or load's region boundary are split into 2 x 2 x 2 sub-points, which
-  /// close the gap between the region and the first particle layer where a field could otherwise
-  /// hide a displacement ramp.
-  double grid_refine_band = 1.0;
-  /// The grid Newton's quadrature weights are (1 - f) volumes + f energyWeights() with f this
-  /// share: surface particles carry a small part of their neighbours' volume. Without it, grid nodes
-  /// that only the outermost interior particles see extrapolate freely to the surface (NeRF
-  /// particles of the T-bar: one corner particle moved 287 mm in a 60 mm twist); energyWeights' full
-  /// share (f = 1) overstates a twisted section's surface strain (6 % error). README "Mechanics".
-  double grid_surface_share = 0.04;
-  /// The grid Newton's volume quadrature. kParticles: the particles' own volumes
-  /// (midpoint rule; grid_surface_share and grid_refine_band apply): right on lattice layouts,
-  /// but a sampler's gap between its outermost interior particles and the surface lets the
-  /// energy drop without bound there (the equilibrium checks then refuse the answer). kCells:
-  /// Gauss points in the grid's cells where the body is, cut cells moment-fitted
-  /// (cell_quadrature.hpp), independent of the sampler (default); measured in docs/dem_feature_grid.md.
-  enum class GridQuadrature { kCells, kParticles };
-  GridQuadrature grid_quadrature = GridQuadrature::kCells;
-  int grid_gauss_points = 2;      ///< Gauss points per axis and cell (kCells)
-  int grid_boundary_levels = 1;   ///< times a cut cell is split in 2 x 2 x 2 (kCells)
-  /// With grid_cell and grid_spacings 0: a grid whose cells hold the body's volume this many times,
-  /// cell = (V / grid_body_cells)^(1/3), so the grid follows the body and not the particles (but
-  /// never finer than the particle spacing); 0: no grid unless grid_cell or grid_spacings asks.
-  /// 600 gives the T-bar's 60 mm section 4 cells of 15 mm (docs/dem_feature_grid.md).
-  double grid_body_cells = 600.0;
-  /// Extended B-splines (bspline_extension.hpp): grid nodes whose support holds no cell the
-  /// quadrature fills to this share are extrapolated from a filled cell nearby instead of being
-  /// unknowns, which removes the near-singular slivers of cut cells (0: off).
-  double grid_extension_fill = 0.75;
-  /// Load steps (0: the scenario's, or 1 with the feature grid: Newton with its line search takes
-  /// the T-bar twist in one, 4 s, where the scenario's 4 steps take 9 s; a failed step is halved).
-  int load_steps = 0;
-  /// Stochastic quadrature near fixtures: particles within jitter_band cells of a fixture move at
-  /// random within their cell at every Adam step, so the network cannot hide a displacement ramp
-  /// between the fixture and the first particle layer (u = D z with z ~ T / D is a free rigid
-  /// translation T away from the fixture otherwise). Particles further away keep fixed points and
-  /// precomputed lift values.
-  bool jitter = true;
-  /// Only particles within this many cells (cube root of the particle volume) of a fixture are
-  /// jittered; the default jitters all: a loaded surface needs it as much as a fixture (a strain
-  /// layer under the traction patch between sample points harvests work too).
-  double jitter_band = 1e9;
-  /// L-BFGS polish per load step on the fixed particles (0: off). It is rejected (the Adam state
-  /// kept) when it lowers the energy by more than polish_max_energy_drop x |Pi| or grows the
-  /// largest displacement by more than polish_max_growth: the signature of the ramp exploit.
-  int lbfgs_iterations = 0;
-  int lbfgs_history = 50;
-  /// A legitimate polish after a short Adam run lowers Pi 3.5x and grows max |u| 4x on the T-bar;
-  /// the exploit lowers Pi ~100x with |u| larger than the body (README "Mechanics").
-  double polish_max_energy_drop = 10.0;
-  double polish_max_growth = 10.0;
-  double tolerance = 1e-10;            ///< L-BFGS stops when the loss changes less than this
-  int max_halvings = 4;                ///< load-step halvings after an inverted or NaN solve
-  /// Torch threads; 0 = 1 thread below 50k particles (faster there on loaded 2-core machines),
-  /// all cores above.
+  using Boundary = DemBoundary;
+  using GridQuadrature = DemGridQuadrature;
+  DemNetworkConfig network;
+  DemBoundaryConfig boundary;
+  DemAdamConfig adam;
+  DemOutputNewtonConfig output_newton;
+  DemLbfgsConfig lbfgs;
+  DemGridConfig grid;
+  DemParametricConfig parametric;
+  int load_steps = 0;           ///< 0: the scenario's, or 1 with the feature grid (a failed step is halved)
+  int max_halvings = 4;         ///< load-step halvings after an inverted or NaN solve (4)
+  /// Torch threads (0: 1 below 50k particles, all cores above) and the grid Newton's assembly
+  /// threads (0: all cores).
   int threads = 0;
-  /// Raise glibc's mmap threshold (process-wide) so per-step activation buffers are reused
-  /// instead of page-faulted in fresh every Adam step (about 1.8x at T-bar sizes).
-  bool tune_allocator = true;
-  /// Parametric mode (instant response to new loads): the load fraction s (scaling every load,
-  /// body force and prescribed displacement of the scenario) is a fourth network input and
-  /// u = s (g + D z(X, s)); one training over s in [load_range_min, load_range_max] (must
-  /// contain 1), then predict(points, s) answers any s in the range without retraining.
-  /// Load steps, L-BFGS and the output-layer Newton do not apply.
-  bool parametric = false;
-  double load_range_min = 0.0;
-  double load_range_max = 1.0;
-  int parametric_samples = 4;  ///< load fractions drawn per Adam step
-  int seed = 1;
-  bool double_precision = false;       ///< float32 by default: 2x faster, accurate to < 1e-4
-  bool verbose = false;
+  bool tune_allocator = true;   ///< raise glibc's mmap threshold, process-wide, to reuse Adam's buffers (true)
+  bool verbose = false;         ///< print training details (false)
 };
 
 /// The paper's DEM: the MLP alone (no feature grid) trained by Adam, 1500 iterations per load
@@ -147,21 +117,25 @@ struct DemConfig {
 /// ~dem_method mlp.
 DemConfig paperDemConfig();
 
-/// `config` in parametric mode over its load_range: the MLP alone (the feature grid does not take
+/// `config` in parametric mode over its load range: the MLP alone (the feature grid does not take
 /// the load as an input), trained by Adam (paperDemConfig()'s iterations when config has none).
 DemConfig parametricDemConfig(DemConfig config);
 
-/// The feature-grid settings a user gave (`demnerf simulate` flags, dem_node parameters); absent
-/// ones keep the config's values.
-struct DemGridChoice {
-  std::optional<double> cell, spacings, body_cells;
+/// The DEM settings a user gave over a preset (`demnerf simulate` flags, dem_node parameters);
+/// absent ones keep the config's values.
+struct DemChoice {
+  std::optional<double> grid_cell, grid_spacings, grid_body_cells;
   std::optional<int> adam_iterations;
+  std::optional<std::pair<double, double>> load_range;  ///< parametric mode over [min, max]
 };
 
-/// `config` with the user's grid choice, by the rules both front ends share: grid_body_cells given
-/// without grid_spacings sizes the cells from the body (grid_spacings 0); any grid setting given
-/// without adam_iterations means no Adam (the grid's Newton solve is the training).
-DemConfig withGridChoice(DemConfig config, const DemGridChoice& choice);
+/// `config` with the user's choice, by the rules both front ends share: grid body_cells given
+/// without spacings sizes the cells from the body (spacings 0); any grid setting given without
+/// adam_iterations means no Adam (the grid's Newton solve is the training); a load range, or
+/// parametric.enabled in `config`, means parametricDemConfig(). Throws core::Error when the choice
+/// contradicts itself: a load range with a grid setting (the grid does not take the load), a
+/// load range not containing 1, or the output-layer Newton with a feature grid.
+DemConfig normalised(DemConfig config, const DemChoice& choice = {});
 
 struct DemReport {
   double seconds = 0.0;

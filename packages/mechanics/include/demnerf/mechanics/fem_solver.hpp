@@ -15,36 +15,24 @@
 
 namespace demnerf::mechanics {
 
+/// The FEM baseline's settings; why each default is what it is: docs/dem_config.md ("FemConfig").
 struct FemConfig {
   enum class LinearSolver { kLDLT, kConjugateGradient };
-  LinearSolver linear_solver = LinearSolver::kLDLT;
-  /// Fill-reducing order of the LDLT: Eigen's approximate minimum degree on the dofs (default),
-  /// or a geometric nested dissection of the mesh nodes (more fill than AMD on the T-bar meshes
-  /// measured so far: nnz(L) 15.7M vs 12.7M; kept for larger meshes and comparisons).
+  LinearSolver linear_solver = LinearSolver::kLDLT;  ///< sparse solver of each Newton step (kLDLT)
+  /// Fill-reducing order of the LDLT: approximate minimum degree on the dofs, or geometric nested
+  /// dissection of the mesh nodes (kAmd).
   enum class Ordering { kNestedDissection, kAmd };
   Ordering ordering = Ordering::kAmd;
-  int max_newton_iterations = 25;
-  /// Load increments; 0 takes the scenario's load_steps. A hyperelastic answer does not depend
-  /// on the load path, and Newton with the energy line search takes the T-bar twist in one step
-  /// (16 iterations vs 27 in the scenario's 4): a step that fails is halved, later steps start
-  /// from a secant predictor.
-  int load_steps = 1;
-  /// Threads for element assembly and the line search's energy evaluations (0: all cores, the
-  /// default). Results do not depend on the count:
-  /// elements are coloured so that no two in a colour share a node, and each colour is summed in
-  /// order. The sparse LDLT (Eigen's SimplicialLDLT) and its triangular solves run on one core;
-  /// the factorisation reuse below keeps factorisations to a few per solve.
-  int threads = 0;
-  /// LDLT only: solve with preconditioned CG using the last factorisation as preconditioner and
-  /// refactorise only when CG needs more than this many iterations (0: factorise every Newton step).
+  int max_newton_iterations = 25;  ///< Newton iterations per load step (25)
+  int load_steps = 1;              ///< load increments; 0: the scenario's; a failed step is halved (1)
+  int threads = 0;                 ///< assembly and line-search threads; 0: all cores; results do not depend on it (0)
+  /// LDLT only: the last factorisation preconditions CG until CG needs more than this many
+  /// iterations; 0: factorise every Newton step (30).
   int reuse_factorisation_iterations = 30;
-  /// Converged when |residual| <= tolerance * (|external forces| + |internal forces|).
-  double tolerance = 1e-9;
-  /// ...or when the last Newton update is below this fraction of |u| (round-off bound loads).
-  double displacement_tolerance = 1e-8;
-  /// A load step whose Newton loop fails is halved up to this many times.
-  int max_step_halvings = 8;
-  double cg_tolerance = 1e-12;
+  double tolerance = 1e-9;               ///< converged at |residual| <= this x (|external| + |internal| forces)
+  double displacement_tolerance = 1e-8;  ///< ...or when the last update is below this x |u| (round-off bound loads)
+  int max_step_halvings = 8;             ///< halvings of a load step whose Newton loop fails (8)
+  double cg_tolerance = 1e-12;           ///< relative tolerance of the CG solves
   bool verbose = false;
 };
 

@@ -49,6 +49,8 @@ struct GridNewtonConfig {
   /// at least this share by the quadrature are extrapolated from a nearby filled cell instead of
   /// being unknowns (0: every node the quadrature sees is an unknown).
   double extension_fill = 0.0;
+  /// Threads of the assembly and the energy evaluations (0: every core).
+  int threads = 0;
   /// Called after each assembly with the iteration, the energy and the relative residual; it may
   /// throw (a time limit, a cancel): C then holds the last accepted coefficients.
   std::function<void(int iteration, double energy, double residual)> on_iteration;

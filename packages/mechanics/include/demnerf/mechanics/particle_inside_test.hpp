@@ -32,10 +32,15 @@ class ParticleInsideTest {
 
  private:
   static constexpr double kSurfaceRadius = 2.0;  ///< in particle spacings
+  /// Surface particles whose normals differ by more than this angle (cos 60 deg) lie on different
+  /// faces: an edge between them (behindSurfaceNear).
+  static constexpr double kEdgeCosine = 0.5;
   Eigen::Vector3i bucket(const Eigen::Vector3d& x) const;
   long bucketIndex(const Eigen::Vector3i& c) const;  ///< -1 outside the table
   template <typename Visit>
   void forEachIn(const Eigen::Vector3i& c, Visit&& visit) const;
+  template <typename Nearby>
+  bool behindSurfaceNear(const Eigen::Vector3d& x, int nearest, Nearby&& nearby) const;
 
   std::vector<Eigen::Vector3d> positions_, normals_;
   std::vector<char> surface_;

@@ -14,45 +14,29 @@
 
 namespace demnerf::mechanics {
 
+/// The strong-form PINN baseline's settings; why each default is what it is: docs/dem_config.md
+/// ("FemConfig and PinnConfig").
 struct PinnConfig {
   int width = 64;                    ///< hidden units per layer
   int depth = 3;                     ///< hidden layers
   std::string activation = "tanh";   ///< tanh | sin | softplus (smooth: the loss needs Hessians)
-  /// Loss weights. Every residual is made dimensionless by the expected stress mu * strain (the
-  /// equilibrium residual also times the body's size L, the displacement one by the expected
-  /// displacement), so the same weights mean the same thing for any body and load.
+  /// Loss weights; every residual is made dimensionless by the expected stress mu * strain.
   double weight_residual = 1.0;      ///< W_R on MSE_R, |Div P + f_b| L / (mu strain)
   double weight_traction = 10.0;     ///< W_t on MSE_t, |P N - t| / (mu strain)
   double weight_displacement = 100.0;  ///< W_u on MSE_u, |u - u_bar| / (strain L)
   int adam_iterations = 1000;        ///< per load step
-  /// Residual (second-derivative) particles per Adam step, drawn afresh at random each step
-  /// (0: all). The Hessian pass dominates the cost and grows with the count; traction and
-  /// fixed particles are always all used, and L-BFGS uses every particle.
-  int residual_batch = 1024;
-  /// Residual points move at random within their particle's cell (edge: cube root of its volume)
-  /// at every Adam step, so no equilibrium violation can hide between fixed collocation points
-  /// (the strong-form twin of the DEM's ramp exploit). It did not rescue the T-bar twist, which
-  /// the PINN does not learn with any setting tried (README "Mechanics").
-  bool jitter = true;
-  /// 2e-3: at 5e-3 the T-bar loss rose (Adam's fixed-size steps outran the residual's
-  /// curvature); both reach 0.2 % on the uniaxial cube with the L-BFGS polish.
-  double adam_learning_rate = 2e-3;
-  /// The rate decays exponentially to adam_learning_rate * adam_final_rate_ratio over a step.
-  double adam_final_rate_ratio = 0.02;
-  /// The output amplitude is refitted by a 1-D line search on the loss at these Adam iterations
-  /// of the first load step (0: never): the a-priori displacement scale (traction / stiffness x
-  /// size) is ~100x off for torsion of a slender body, and Adam cannot grow an output layer 100x.
-  int rescale_every = 25;
-  int rescale_until = 200;
-  /// Displacement (m) the network's unit output stands for, which also sets the residuals'
-  /// normalisation; 0: estimated as traction / E x size, then refitted as above.
+  int residual_batch = 1024;         ///< residual particles per Adam step, drawn afresh (0: all)
+  bool jitter = true;                ///< residual points move within their particle's cell every Adam step
+  double adam_learning_rate = 2e-3;  ///< initial rate
+  double adam_final_rate_ratio = 0.02;  ///< the rate decays exponentially to rate x this over a step
+  int rescale_every = 25;            ///< output amplitude line search every N steps of the first load step (0: never)
+  int rescale_until = 200;           ///< ...during its first N steps
+  /// m the network's unit output stands for (also the residuals' normalisation); 0: estimated as
+  /// traction / E x size, then refitted as above.
   double displacement_scale = 0.0;
-  /// L-BFGS polish per load step after Adam (0: off): 2-3.5 % -> 0.2 % on the uniaxial cube.
-  int lbfgs_iterations = 200;
+  int lbfgs_iterations = 200;        ///< L-BFGS polish per load step after Adam (0: off)
   int lbfgs_history = 50;
-  /// Load steps: 0 takes the scenario's load_steps. The strong form needs no continuation
-  /// (unlike Newton), so 1 is the fast choice; more steps only help when a step inverts particles.
-  int load_steps = 1;
+  int load_steps = 1;                ///< 0: the scenario's
   int max_halvings = 4;              ///< load-step halvings after an inverted or NaN solve
   int threads = 0;                   ///< torch threads; 0 = 1 below 50k particles, all cores above
   int seed = 1;

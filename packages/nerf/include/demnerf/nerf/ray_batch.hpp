@@ -16,8 +16,22 @@ struct RenderOutputs {
   float* opacity;  ///< [n], or null
 };
 
-/// Renders n rays (origins, unit directions: n x 3) over `background` (3 floats). Threaded.
-/// Returns the number of field samples evaluated.
+/// Where rays march: step sizes, the occupancy grid that skips empty space, the box.
+struct MarchScene {
+  const MarchParams& params;
+  const OccupancyGrid& grid;
+  Box bounds;
+  int samples_per_round;  ///< first round's samples per ray; later rounds double up to 32
+};
+
+/// The one marching + compositing path of every renderer: renders n rays (origins, unit
+/// directions: n x 3) through any field over `background` (3 floats). Threaded over blocks of
+/// rays; the field is queried once per round with all the block's samples. Returns the number
+/// of field samples evaluated.
+std::int64_t renderRays(const Field& field, const MarchScene& scene, const float* origins, const float* directions,
+                        std::int64_t n, const float* background, const RenderOutputs& out);
+
+/// renderRays through the model's field with its render marching.
 std::int64_t renderRays(const NerfModel& model, const float* origins, const float* directions, std::int64_t n,
                         const float* background, const RenderOutputs& out);
 
@@ -61,6 +75,12 @@ class TrainEngine {
 
  private:
   struct ThreadState;
+  /// March, forward, composite + loss and backward of every ray, split over the workers.
+  void runPasses(const TrainRays& rays);
+  /// Hash table gradient scatter and its Adam step.
+  void updateTable(const AdamHyper& hyper);
+  /// Sum of the workers' MLP gradients and their Adam step.
+  void updateMlps(const AdamHyper& hyper);
   NerfModel& model_;
   std::int64_t iteration_ = 0;
   AdamMoments table_moments_, density_moments_, color_moments_;

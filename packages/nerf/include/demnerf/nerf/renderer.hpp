@@ -6,6 +6,7 @@
 
 #include "demnerf/core/camera.hpp"
 #include "demnerf/nerf/model.hpp"
+#include "demnerf/nerf/ray_batch.hpp"
 
 namespace demnerf::nerf {
 
@@ -19,6 +20,12 @@ struct RenderedImage {
 
 /// Colour and opacity as one CV_32FC4 RGBA image (for PNG files and image messages).
 cv::Mat toRgba(const RenderedImage& image);
+
+/// A view of any field (the NeRF, a deformed body) through the one marching + compositing
+/// path, renderRays. world_from_camera is the optical frame (z forward, y down);
+/// background: RGB in [0, 1].
+RenderedImage renderView(const Field& field, const MarchScene& scene, const core::PinholeCamera& camera,
+                         const Eigen::Isometry3d& world_from_camera, const Eigen::Vector3f& background);
 
 /// world_from_camera is the optical frame (z forward, y down). background: RGB in [0, 1].
 RenderedImage renderImage(const NerfModel& model, const core::PinholeCamera& camera,

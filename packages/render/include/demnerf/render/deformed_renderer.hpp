@@ -10,6 +10,7 @@
 #include "demnerf/core/ply.hpp"
 #include "demnerf/nerf/model.hpp"
 #include "demnerf/nerf/renderer.hpp"
+#include "demnerf/render/deformed_field.hpp"
 #include "demnerf/render/tet_embedding.hpp"
 
 namespace demnerf::render {
@@ -26,27 +27,35 @@ struct DeformedRenderConfig {
   double min_occupied_share = 0.5;
 };
 
-/// The deformed body, ready to render from any camera: the embedding, and an occupancy grid of
-/// the deformed scene (rasterised deformed tetrahedra whose rest region the NeRF occupies).
-/// Holds a reference to the model, which must outlive it.
+/// The deformed body, ready to render from any camera: the embedding, the deformed scene as a
+/// Field, and an occupancy grid of the deformed scene (rasterised deformed tetrahedra whose
+/// rest region the NeRF occupies). Holds a reference to the model, which must outlive it; not
+/// copyable (its field refers to its embedding).
 class DeformedScene {
  public:
   /// Throws core::Error when the result does not fit the model: empty, non-finite, wrong
   /// particle count, rest positions outside the model's box or where the NeRF is empty.
   DeformedScene(const nerf::NerfModel& model, const core::ResultField& result,
                 const DeformedRenderConfig& config = {});
+  DeformedScene(const DeformedScene&) = delete;
+  DeformedScene& operator=(const DeformedScene&) = delete;
 
   const nerf::NerfModel& model() const { return model_; }
   const TetEmbedding& embedding() const { return embedding_; }
   const nerf::OccupancyGrid& grid() const { return grid_; }
   const nerf::Box& bounds() const { return grid_.bounds(); }
   const DeformedRenderConfig& config() const { return config_; }
+  /// x -> X through the embedding, then the NeRF.
+  const DeformedField& field() const { return *field_; }
+  /// The undeformed renderer's marching over the deformed scene's grid and box.
+  nerf::MarchScene marchScene() const;
 
  private:
   const nerf::NerfModel& model_;
   DeformedRenderConfig config_;
   TetEmbedding embedding_;
   nerf::OccupancyGrid grid_;
+  std::unique_ptr<DeformedField> field_;
 };
 
 /// world_from_camera is the optical frame (z forward, y down); background RGB in [0, 1].

@@ -70,6 +70,12 @@ class TetEmbedding {
     float rotation[9];    ///< R (row-major), polar rotation of F
   };
 
+  /// Keeps Delaunay cell v (rest corners) unless it is too long, a sliver or inverted by the
+  /// displacement; updates min_volume_ratio_.
+  void addTetrahedron(const std::array<int, 4>& v, const TetEmbeddingConfig& config, double max_edge);
+  /// The locator grid over the kept tetrahedra's deformed boxes grown by the margin.
+  void buildLocator(double cell_factor);
+
   std::vector<Eigen::Vector3d> rest_, deformed_;
   std::vector<std::array<int, 4>> tets_;
   std::vector<Map> maps_;

@@ -1,0 +1,322 @@
+#include <ATen/Parallel.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <memory>
+
+#include "demnerf/nerf/compositing.hpp"
+#include "demnerf/nerf/ray_batch.hpp"
+#include "march_round.hpp"
+
+// One training step in four parts per block of rays: march (rounds of samples), forward (the
+// field on each round, activations kept), composite + loss (per ray), backward (per-sample
+// gradients, MLP backward, table scatter); then the optimiser and the occupancy schedule.
+
+namespace demnerf::nerf {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+constexpr int kTrainBlock = 128;  // rays per block: its first round fills several pieces
+
+/// Up to kChunk samples of one round, with the activations the backward pass needs, so the
+/// backward needs no second forward.
+struct Piece {
+  FieldWorkspace ws;
+  int count = 0;
+  float unit[3 * NgpField::kChunk], dirs[3 * NgpField::kChunk];
+  float dt[NgpField::kChunk], sigma[NgpField::kChunk], rgb[3 * NgpField::kChunk];
+  float t_before[NgpField::kChunk], c_upto[3 * NgpField::kChunk];
+  int ray[NgpField::kChunk];  ///< block ray; -1 when the ray was opaque before this sample
+};
+
+/// Everything one worker thread keeps between the passes and across steps.
+struct Worker {
+  detail::Round round;
+  MlpGradients grads;
+  std::vector<std::unique_ptr<Piece>> pieces;  ///< pool, reused across blocks and steps
+  std::size_t used = 0;                        ///< pieces holding this block's samples
+  // Inputs of the table backward: positions and d(loss)/d(encoding) of every sample.
+  std::vector<float> enc_pos, enc_grad;
+  std::int64_t enc_count = 0;
+  double loss = 0, sq_error = 0;
+  double march_seconds = 0, encode_seconds = 0;  // for the time breakdown
+  std::int64_t samples = 0, marched = 0;
+  std::vector<RayCursor> cursors = std::vector<RayCursor>(kTrainBlock);
+  std::vector<RayAccum> acc = std::vector<RayAccum>(kTrainBlock);
+  float grad_color[kTrainBlock][3], total_color[kTrainBlock][3];
+  float g_sigma[NgpField::kChunk], g_rgb[3 * NgpField::kChunk];
+
+  Piece& nextPiece() {
+    while (pieces.size() <= used) pieces.push_back(std::make_unique<Piece>());
+    return *pieces[used++];
+  }
+  void reset() {
+    loss = sq_error = 0;
+    samples = marched = enc_count = 0;
+    march_seconds = encode_seconds = 0;
+    grads.zero();
+  }
+};
+
+/// Forward: the field on one round's samples, in pieces that keep their activations.
+void forwardRound(const NgpField& field, Worker& st, int total) {
+  for (int c = 0; c < total; c += NgpField::kChunk) {
+    Piece& pc = st.nextPiece();
+    pc.count = std::min(NgpField::kChunk, total - c);
+    field.toUnit(st.round.world.data() + 3 * c, pc.count, pc.unit);
+    std::copy(st.round.dirs.data() + 3 * c, st.round.dirs.data() + 3 * (c + pc.count), pc.dirs);
+    std::copy(st.round.dt.data() + c, st.round.dt.data() + c + pc.count, pc.dt);
+    field.forwardChunk(pc.unit, pc.dirs, pc.count, pc.ws, pc.sigma, pc.rgb);
+  }
+}
+
+/// Composite: adds one round (pieces from first_piece on) to the block's rays, recording per
+/// sample what the backward needs (transmittance before it, colour up to it).
+void compositeRound(Worker& st, int rays, std::size_t first_piece, float min_t) {
+  for (int j = 0; j < rays; ++j) {
+    RayAccum& a = st.acc[j];
+    for (int s = st.round.first[j]; s < st.round.first[j] + st.round.count[j]; ++s) {
+      Piece& pc = *st.pieces[first_piece + s / NgpField::kChunk];
+      const int i = s % NgpField::kChunk;
+      if (a.transmittance < min_t) {  // opaque earlier in this round: no gradient
+        pc.ray[i] = -1;
+        continue;
+      }
+      pc.t_before[i] = a.transmittance;
+      a.add(pc.sigma[i], pc.dt[i], pc.rgb + 3 * i, st.round.t[s]);
+      std::copy(a.color, a.color + 3, pc.c_upto + 3 * i);
+      pc.ray[i] = j;
+      ++st.samples;
+    }
+    if (a.transmittance < min_t) st.cursors[j].done = true;
+  }
+}
+
+/// March + forward + composite of one block, round after round, until every ray is done.
+void marchBlock(const NerfModel& model, const TrainRays& batch, Worker& st, std::int64_t first, int rays) {
+  const float min_t = model.march().min_transmittance;
+  for (int j = 0; j < rays; ++j) {
+    const std::int64_t r = first + j;
+    startRay(model.march(), model.bounds(), batch.origins.data() + 3 * r, batch.directions.data() + 3 * r,
+             batch.jitter[r], st.cursors[j]);
+    st.acc[j] = RayAccum();
+  }
+  st.used = 0;
+  const int per_round = model.config().march.samples_per_round;
+  for (;;) {
+    const auto tm = Clock::now();
+    const int total = detail::marchRound(model.march(), model.grid(), st.cursors, rays, per_round, st.round);
+    st.march_seconds += since(tm);
+    if (total == 0) break;
+    st.marched += total;
+    const std::size_t round_first_piece = st.used;
+    forwardRound(model.field(), st, total);
+    compositeRound(st, rays, round_first_piece, min_t);
+  }
+}
+
+/// Loss of one block's rays against their targets, and d(loss)/d(ray colour).
+void blockLoss(const TrainConfig& train, const TrainRays& batch, Worker& st, std::int64_t first, int rays) {
+  const bool huber = train.loss == "huber";
+  const float delta = static_cast<float>(train.huber_delta);
+  const float grad_scale = 1.0f / (3.0f * static_cast<float>(batch.size()));
+  for (int j = 0; j < rays; ++j) {
+    const std::int64_t r = first + j;
+    const float* target = batch.target.data() + 4 * r;
+    st.acc[j].finish(batch.background.data() + 3 * r, st.total_color[j]);
+    for (int k = 0; k < 3; ++k) {
+      const float bg = batch.background[3 * r + k];
+      const float want = target[k] * target[3] + bg * (1.0f - target[3]);
+      const float e = st.total_color[j][k] - want;
+      st.sq_error += static_cast<double>(e) * e;
+      if (huber) {
+        const float ae = std::fabs(e);
+        st.loss += ae < delta ? 0.5 * e * e / delta : ae - 0.5 * delta;
+        st.grad_color[j][k] = (ae < delta ? e / delta : (e > 0 ? 1.0f : -1.0f)) * grad_scale;
+      } else {
+        st.loss += static_cast<double>(e) * e;
+        st.grad_color[j][k] = 2.0f * e * grad_scale;
+      }
+    }
+  }
+}
+
+/// Backward of one block: per-sample gradients from the ray totals, the fused MLP backward,
+/// and the samples' encoding gradients queued for the table scatter.
+void backwardBlock(const NgpField& field, Worker& st) {
+  const int enc_dims = field.hashLayout().outputDims();
+  std::int64_t block_samples = 0;
+  for (std::size_t p = 0; p < st.used; ++p) block_samples += st.pieces[p]->count;
+  const std::size_t need = static_cast<std::size_t>(st.enc_count + block_samples);
+  if (st.enc_pos.size() < 3 * need) st.enc_pos.resize(3 * need * 3 / 2);
+  if (st.enc_grad.size() < enc_dims * need) st.enc_grad.resize(enc_dims * need * 3 / 2);
+  for (std::size_t p = 0; p < st.used; ++p) {
+    Piece& pc = *st.pieces[p];
+    for (int i = 0; i < pc.count; ++i) {
+      const int j = pc.ray[i];
+      if (j < 0) {
+        st.g_sigma[i] = 0.0f;
+        st.g_rgb[3 * i] = st.g_rgb[3 * i + 1] = st.g_rgb[3 * i + 2] = 0.0f;
+        continue;
+      }
+      const float alpha = 1.0f - std::exp(-pc.sigma[i] * pc.dt[i]);
+      const float w = pc.t_before[i] * alpha;
+      const float t_next = pc.t_before[i] * (1.0f - alpha);
+      for (int k = 0; k < 3; ++k) st.g_rgb[3 * i + k] = st.grad_color[j][k] * w;
+      st.g_sigma[i] = colorSigmaGradient(st.grad_color[j], pc.rgb + 3 * i, t_next, st.total_color[j],
+                                         pc.c_upto + 3 * i) * pc.dt[i];
+    }
+    field.backwardChunk(pc.count, pc.ws, st.g_sigma, st.g_rgb, st.grads,
+                        st.enc_grad.data() + static_cast<std::size_t>(st.enc_count) * enc_dims);
+    std::copy(pc.unit, pc.unit + 3 * pc.count, st.enc_pos.data() + 3 * st.enc_count);
+    st.enc_count += pc.count;
+    st.encode_seconds += pc.ws.encode_seconds;
+    pc.ws.encode_seconds = 0;
+  }
+}
+
+}  // namespace
+
+struct TrainEngine::ThreadState : Worker {};
+
+TrainEngine::TrainEngine(NerfModel& model) : model_(model) {
+  NgpField& f = model.field();
+  table_moments_.resize(f.table().size());
+  density_moments_.resize(f.densityWeights().size());
+  color_moments_.resize(f.colorWeights().size());
+  table_grad_.assign(f.table().size(), 0.0f);
+  touched_.assign(f.hashLayout().total_entries, 0);
+}
+
+StepResult TrainEngine::step(const TrainRays& batch, float learning_rate) {
+  runPasses(batch);
+  ++iteration_;
+  const TrainConfig& train = model_.config().train;
+  AdamHyper h;
+  h.learning_rate = learning_rate;
+  h.beta1 = static_cast<float>(train.beta1);
+  h.beta2 = static_cast<float>(train.beta2);
+  h.epsilon = static_cast<float>(train.epsilon);
+  h.step = iteration_;
+  updateTable(h);
+  h.weight_decay = static_cast<float>(train.weight_decay);
+  updateMlps(h);
+  if ((iteration_ - 1) % model_.config().occupancy.update_interval == 0) {
+    const auto t3 = Clock::now();
+    model_.grid().update(model_.field(), iteration_ - 1, train.seed);
+    times_.occupancy += since(t3);
+  }
+  StepResult result;
+  result.rays = batch.size();
+  for (const auto& st : threads_) {
+    result.loss += st->loss;
+    result.mse += st->sq_error;
+    result.samples += st->samples;
+    result.marched += st->marched;
+  }
+  result.loss /= std::max<double>(1.0, 3.0 * batch.size());
+  result.mse /= std::max<double>(1.0, 3.0 * batch.size());
+  return result;
+}
+
+void TrainEngine::runPasses(const TrainRays& batch) {
+  const NgpField& field = model_.field();
+  const std::int64_t n = batch.size();
+  const int workers = std::max(1, at::get_num_threads());
+  while (static_cast<int>(threads_.size()) < workers) {
+    auto state = std::make_shared<ThreadState>();
+    state->grads.density.assign(field.densityWeights().size(), 0.0f);
+    state->grads.color.assign(field.colorWeights().size(), 0.0f);
+    const int per_round = model_.config().march.samples_per_round;
+    state->round.reserve(kTrainBlock, kTrainBlock * per_round);
+    threads_.push_back(state);
+  }
+  const auto t0 = Clock::now();
+  double forward_seconds = 0.0, backward_seconds = 0.0, march_share = 0.0, encode_share = 0.0;
+  // One contiguous slice of rays per worker: the partition, and so the result, depends only
+  // on the thread count.
+  at::parallel_for(0, workers, 1, [&](std::int64_t wbegin, std::int64_t wend) {
+    for (std::int64_t w = wbegin; w < wend; ++w) {
+      Worker& st = *threads_[w];
+      st.reset();
+      double p1 = 0, p2 = 0;
+      for (std::int64_t first = n * w / workers; first < n * (w + 1) / workers; first += kTrainBlock) {
+        const int rays = static_cast<int>(std::min<std::int64_t>(kTrainBlock, n * (w + 1) / workers - first));
+        const auto tp1 = Clock::now();
+        marchBlock(model_, batch, st, first, rays);
+        blockLoss(model_.config().train, batch, st, first, rays);
+        const auto tp2 = Clock::now();
+        p1 += std::chrono::duration<double>(tp2 - tp1).count();
+        backwardBlock(field, st);
+        p2 += since(tp2);
+      }
+      if (w == 0) {
+        march_share = st.march_seconds / std::max(1e-12, p1);
+        encode_share = st.encode_seconds / std::max(1e-12, p1);
+        forward_seconds = p1;
+        backward_seconds = p2;
+      }
+    }
+  });
+  const double parallel_seconds = since(t0);
+  // Split the parallel section's wall time between the parts as worker 0 saw it.
+  const double p_sum = std::max(1e-12, forward_seconds + backward_seconds);
+  const double forward_wall = parallel_seconds * forward_seconds / p_sum;
+  times_.march += forward_wall * march_share;
+  times_.encode_forward += forward_wall * encode_share;
+  times_.march_forward += forward_wall * (1.0 - march_share);
+  times_.backward_mlp += parallel_seconds * backward_seconds / p_sum;
+}
+
+void TrainEngine::updateTable(const AdamHyper& h) {
+  // Levels own disjoint table ranges, so workers split the levels and update each level's
+  // touched entries while they are still in cache.
+  NgpField& field = model_.field();
+  const auto t1 = Clock::now();
+  const HashGridLayout& layout = field.hashLayout();
+  std::vector<double> table_seconds(layout.levels, 0.0);
+  at::parallel_for(0, layout.levels, 1, [&](std::int64_t lbegin, std::int64_t lend) {
+    for (std::int64_t l = lbegin; l < lend; ++l) {
+      const auto ts = Clock::now();
+      for (const auto& st : threads_) {
+        hashEncodeBackwardTable(layout, st->enc_pos.data(), st->enc_count, st->enc_grad.data(), table_grad_.data(),
+                                static_cast<int>(l), static_cast<int>(l + 1), touched_.data());
+      }
+      table_seconds[l] = since(ts);
+      // A sequential sweep over the level's flags streams through memory; visiting a list
+      // of touched entries in scatter order would miss the cache on nearly every entry.
+      adamTouched(h, field.table().data(), table_grad_.data(), table_moments_, layout.offset[l],
+                  layout.offset[l] + layout.entries[l], layout.features, touched_.data());
+    }
+  });
+  const double table_total = since(t1);
+  double scatter = 0.0;
+  for (double v : table_seconds) scatter += v;
+  // Split the section's wall time by the share the scatter took (summed over workers).
+  const int workers = std::max(1, at::get_num_threads());
+  const double share = std::min(1.0, scatter / std::max(1e-12, table_total * std::min(workers, layout.levels)));
+  times_.backward_table += table_total * share;
+  times_.optimizer += table_total * (1.0 - share);
+}
+
+void TrainEngine::updateMlps(const AdamHyper& h) {
+  NgpField& field = model_.field();
+  const auto t2 = Clock::now();
+  // Sum the workers' gradients in a fixed order, then one fused Adam pass.
+  MlpGradients& sum = threads_[0]->grads;
+  for (std::size_t w = 1; w < threads_.size(); ++w) {
+    for (std::size_t i = 0; i < sum.density.size(); ++i) sum.density[i] += threads_[w]->grads.density[i];
+    for (std::size_t i = 0; i < sum.color.size(); ++i) sum.color[i] += threads_[w]->grads.color[i];
+  }
+  adamDense(h, field.densityWeights().data(), sum.density.data(), density_moments_,
+            static_cast<std::int64_t>(field.densityWeights().size()));
+  adamDense(h, field.colorWeights().data(), sum.color.data(), color_moments_,
+            static_cast<std::int64_t>(field.colorWeights().size()));
+  field.refreshTransposed();
+  times_.optimizer += since(t2);
+}
+
+}  // namespace demnerf::nerf
