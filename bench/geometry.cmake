@@ -16,8 +16,8 @@ endforeach()
 # geometry_tbar_extraction: trains (or loads) a NeRF of the synthetic T-bar and measures the
 # extracted mesh against the exact one. It needs demnerf_nerf and demnerf_render, which
 # demnerf_geometry does not depend on (render already depends on nerf; geometry stays torch-free).
-# In the root build nerf and render are added after geometry, so the target is declared at the
-# end of the top-level directory; standalone, the two packages are pulled in here.
+# In the root build bench/CMakeLists.txt includes this after every library; standalone, the two
+# packages are pulled in here.
 if(NOT COMMAND demnerf_geometry_tbar_bench)
   function(demnerf_geometry_tbar_bench)
     if(TARGET geometry_tbar_extraction OR NOT TARGET demnerf_render)
@@ -32,11 +32,8 @@ if(NOT COMMAND demnerf_geometry_tbar_bench)
     set_target_properties(geometry_tbar_extraction PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin/bench")
   endfunction()
 endif()
-if(CMAKE_SOURCE_DIR STREQUAL DEMNERF_ROOT_DIR)
-  cmake_language(DEFER DIRECTORY ${CMAKE_SOURCE_DIR} CALL demnerf_geometry_tbar_bench)
-else()
-  if(NOT TARGET demnerf_render AND EXISTS ${DEMNERF_ROOT_DIR}/packages/render/CMakeLists.txt)
-    add_subdirectory(${DEMNERF_ROOT_DIR}/packages/render ${CMAKE_BINARY_DIR}/render)
-  endif()
-  demnerf_geometry_tbar_bench()
+# Standalone geometry build: pull in render (and nerf) for it; in the root build they exist already.
+if(NOT TARGET demnerf_render AND EXISTS ${DEMNERF_ROOT_DIR}/packages/render/CMakeLists.txt)
+  add_subdirectory(${DEMNERF_ROOT_DIR}/packages/render ${CMAKE_BINARY_DIR}/render)
 endif()
+demnerf_geometry_tbar_bench()

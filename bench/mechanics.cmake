@@ -28,8 +28,8 @@ set_target_properties(mechanics_fem_convergence PROPERTIES RUNTIME_OUTPUT_DIRECT
 
 # mechanics_matrix: the solver matrix of issue 13 (docs/mechanics_matrix.{csv,md,png}). Its NeRF
 # rows train and extract a NeRF (demnerf_nerf, demnerf_render) and its clouds come from the
-# product's samplers (demnerf_geometry); in the root build render is added after mechanics, so the
-# target is declared at the end of the top-level directory (like geometry_tbar_extraction).
+# product's samplers (demnerf_geometry); in the root build bench/CMakeLists.txt includes this after
+# every library, so they exist.
 if(NOT COMMAND demnerf_mechanics_matrix_bench)
   function(demnerf_mechanics_matrix_bench)
     if(TARGET mechanics_matrix OR NOT TARGET demnerf_render OR NOT TARGET demnerf_geometry)
@@ -47,11 +47,7 @@ if(NOT COMMAND demnerf_mechanics_matrix_bench)
     set_target_properties(mechanics_matrix PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin/bench")
   endfunction()
 endif()
-if(CMAKE_SOURCE_DIR STREQUAL DEMNERF_ROOT_DIR)
-  cmake_language(DEFER DIRECTORY ${CMAKE_SOURCE_DIR} CALL demnerf_mechanics_matrix_bench)
-else()
-  demnerf_mechanics_matrix_bench()  # standalone mechanics build: only when render was added too
-endif()
+demnerf_mechanics_matrix_bench()  # standalone mechanics build: only when render was added too
 add_executable(mechanics_patch_response ${CMAKE_CURRENT_LIST_DIR}/mechanics_patch_response.cpp)
 target_link_libraries(mechanics_patch_response PRIVATE demnerf_mechanics)
 target_compile_definitions(mechanics_patch_response PRIVATE DEMNERF_ROOT="${DEMNERF_ROOT_DIR}")

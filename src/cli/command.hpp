@@ -32,7 +32,6 @@ extern const Command kSampleCommand;
 extern const Command kSimulateCommand;
 extern const Command kCompareCommand;
 extern const Command kPredictCommand;
-extern const Command kPipelineCommand;
 extern const Command kBagCommand;
 extern const Command kInfoCommand;
 

@@ -5,7 +5,7 @@ namespace demnerf::cli {
 const std::vector<Command>& allCommands() {
   static const std::vector<Command> commands = {
       kSynthCommand,    kTrainCommand,  kEvalCommand,    kRenderCommand,  kExtractCommand, kSampleCommand,
-      kSimulateCommand, kPredictCommand, kCompareCommand, kPipelineCommand, kBagCommand,     kInfoCommand};
+      kSimulateCommand, kPredictCommand, kCompareCommand, kBagCommand,     kInfoCommand};
   return commands;
 }
 

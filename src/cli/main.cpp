@@ -65,9 +65,6 @@ int main(int argc, char** argv) {
     std::cerr << "demnerf " << name << ": " << error.what() << "\n"
               << "usage: demnerf " << command->name << " " << command->usage << "\n";
     return 2;
-  } catch (const demnerf::cli::NotBuiltYet& error) {
-    std::cerr << "demnerf " << name << ": " << error.what() << "\n";
-    return 2;
   } catch (const std::exception& error) {
     std::cerr << "demnerf " << name << ": " << error.what() << "\n";
     return 1;

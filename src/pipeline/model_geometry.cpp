@@ -46,4 +46,20 @@ void colourFromModel(const demnerf::nerf::NerfModel& model, demnerf::core::Parti
   }
 }
 
+demnerf::core::ParticleCloud particlesFromModel(const demnerf::nerf::NerfModel& model, int resolution,
+                                                const demnerf::geometry::MeshExtractionConfig& extraction,
+                                                demnerf::geometry::SamplerConfig sampling,
+                                                demnerf::core::TriangleMesh* mesh_out) {
+  const demnerf::core::TriangleMesh mesh = extractSurface(model, resolution, extraction).mesh;
+  if (sampling.spacing <= 0.0) {
+    Eigen::AlignedBox3d box;
+    for (const auto& v : mesh.vertices) box.extend(v);
+    sampling.spacing = box.diagonal().norm() / 40.0;
+  }
+  demnerf::core::ParticleCloud cloud = demnerf::geometry::sampleParticles(mesh, sampling, nullptr);
+  colourFromModel(model, &cloud);
+  if (mesh_out != nullptr) *mesh_out = mesh;
+  return cloud;
+}
+
 }  // namespace dem_nerf

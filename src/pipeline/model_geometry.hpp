@@ -2,9 +2,10 @@
 // From a trained NeRF to the simulation's inputs: its density on a grid, its surface mesh, and
 // particle colours from its radiance. Shared by nerf_node and the demnerf CLI.
 
-#include "demnerf/core/ply.hpp"
+#include "demnerf/core/particle_cloud.hpp"
 #include "demnerf/geometry/mesh_from_density.hpp"
 #include "demnerf/geometry/object_isolation.hpp"
+#include "demnerf/geometry/particle_sampler.hpp"
 #include "demnerf/nerf/model.hpp"
 #include "pipeline/surface_defaults.hpp"
 
@@ -25,5 +26,13 @@ demnerf::geometry::MeshExtractionResult extractSurface(const demnerf::nerf::Nerf
 /// Colours each particle with the NeRF's radiance, seen from outside along its normal
 /// (interior particles: from above).
 void colourFromModel(const demnerf::nerf::NerfModel& model, demnerf::core::ParticleCloud* cloud);
+
+/// The model's surface (extractSurface) filled with coloured particles. A sampling spacing <= 0
+/// means 1/40 of the mesh's bounding-box diagonal (a few thousand particles for any body size).
+/// The mesh is handed back through mesh_out when given (nerf_node draws it).
+demnerf::core::ParticleCloud particlesFromModel(const demnerf::nerf::NerfModel& model, int resolution,
+                                                const demnerf::geometry::MeshExtractionConfig& extraction,
+                                                demnerf::geometry::SamplerConfig sampling,
+                                                demnerf::core::TriangleMesh* mesh_out = nullptr);
 
 }  // namespace dem_nerf

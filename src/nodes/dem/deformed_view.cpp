@@ -38,9 +38,7 @@ cv::Mat DeformedView::render(const demnerf::core::ResultField& result, const dem
   if (!world_from_camera.matrix().allFinite()) throw Error("the render camera's pose holds NaN or Inf");
   const demnerf::render::DeformedScene scene(*model_, result);
   const demnerf::nerf::RenderedImage image = demnerf::render::renderDeformed(scene, camera, world_from_camera);
-  cv::Mat bytes;
-  demnerf::nerf::toRgba(image).convertTo(bytes, CV_8UC4, 255.0);
-  return bytes;
+  return demnerf::nerf::toRgba(image);
 }
 
 demnerf::core::PinholeCamera cameraFromFieldOfView(int width, int height, double fov_degrees) {

@@ -32,7 +32,7 @@ class DeformedView {
   /// version; the model loaded before, if any, is dropped so a stale one is never rendered.
   void useModel(const std::string& path);
 
-  /// CV_8UC4 RGBA image of the result's deformed body seen from world_from_camera (optical
+  /// RGBA float image (CV_32FC4, [0, 1]) of the result's deformed body seen from world_from_camera (optical
   /// frame, in the model's world frame). Throws demnerf::core::Error when no model is loaded or
   /// the result does not fit it (another body, empty, NaN).
   cv::Mat render(const demnerf::core::ResultField& result, const demnerf::core::PinholeCamera& camera,

@@ -1,49 +1,12 @@
 #include "nodes/nerf/frame_intake.hpp"
 
-#include <cv_bridge/cv_bridge.h>
-#include <sensor_msgs/image_encodings.h>
 #include <tf2_eigen/tf2_eigen.h>
 
-#include <opencv2/imgproc.hpp>
-
 #include "conversions/camera_info_conversions.hpp"
-#include "conversions/image_layout.hpp"
+#include "conversions/image_conversions.hpp"
 #include "demnerf/core/error.hpp"
 
 namespace dem_nerf {
-namespace {
-
-namespace encodings = sensor_msgs::image_encodings;
-
-}  // namespace
-
-cv::Mat toRgba(const sensor_msgs::Image& image, bool* has_alpha, std::uint64_t max_pixels) {
-  // Every size checked in 64 bits before cv_bridge, whose own check wraps at 2^32 bytes.
-  checkImageLayout(image, max_pixels);
-  const std::string& e = image.encoding;
-  int conversion = -1;
-  if (e == encodings::RGB8) conversion = cv::COLOR_RGB2RGBA;
-  else if (e == encodings::BGR8) conversion = cv::COLOR_BGR2RGBA;
-  else if (e == encodings::MONO8) conversion = cv::COLOR_GRAY2RGBA;
-  else if (e == encodings::BGRA8) conversion = cv::COLOR_BGRA2RGBA;
-  *has_alpha = e == encodings::RGBA8 || e == encodings::BGRA8;
-  cv_bridge::CvImageConstPtr shared;
-  try {
-    shared = cv_bridge::toCvShare(boost::make_shared<sensor_msgs::Image>(image), e);
-  } catch (const std::exception& error) {  // cv_bridge::Exception, cv::Exception
-    throw demnerf::core::Error(std::string("image could not be read: ") + error.what());
-  }
-  try {
-    cv::Mat rgba8;
-    if (conversion >= 0) cv::cvtColor(shared->image, rgba8, conversion);
-    else rgba8 = shared->image;
-    cv::Mat rgba;
-    rgba8.convertTo(rgba, CV_32FC4, 1.0 / 255.0);
-    return rgba;
-  } catch (const cv::Exception& error) {
-    throw demnerf::core::Error(std::string("image could not be converted: ") + error.what());
-  }
-}
 
 FrameIntake::FrameIntake(const FrameIntakeConfig& config, const tf2_ros::Buffer& tf_buffer)
     : config_(config), tf_buffer_(tf_buffer), selector_(config.keyframes) {}

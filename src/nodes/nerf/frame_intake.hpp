@@ -68,8 +68,4 @@ class FrameIntake {
   FrameIntakeCounts counts_;
 };
 
-/// An image message as RGBA float; throws demnerf::core::Error for unsupported encodings, a
-/// layout that does not match its data (checkImageLayout) or more than max_pixels pixels.
-cv::Mat toRgba(const sensor_msgs::Image& image, bool* has_alpha, std::uint64_t max_pixels = 4096ull * 4096ull);
-
 }  // namespace dem_nerf

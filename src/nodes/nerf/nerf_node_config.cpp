@@ -54,4 +54,48 @@ NerfNodeConfig NerfNodeConfig::fromParameters(const ros::NodeHandle& node) {
   return config;
 }
 
+FrameIntakeConfig NerfNodeConfig::intake() const {
+  FrameIntakeConfig intake;
+  intake.world_frame = world_frame;
+  intake.tf_timeout = tf_timeout;
+  intake.max_image_size = max_image_size;
+  intake.max_input_pixels = static_cast<std::uint64_t>(max_input_pixels);
+  intake.keyframes.min_translation = min_translation;
+  intake.keyframes.min_rotation_degrees = min_rotation;
+  intake.keyframes.max_frames = static_cast<std::size_t>(max_frames);
+  if (!background_color.empty()) {
+    demnerf::core::ColourKey key;
+    key.color = cv::Vec3f(background_color[0], background_color[1], background_color[2]);
+    key.tolerance = key_tolerance;
+    intake.colour_key = key;
+  }
+  return intake;
+}
+
+demnerf::nerf::NerfConfig NerfNodeConfig::nerf() const {
+  demnerf::nerf::NerfConfig config = nerf_config.empty() ? demnerf::nerf::NerfConfig{} : demnerf::nerf::loadNerfConfig(nerf_config);
+  config.train.threads = threads;
+  config.validate();
+  return config;
+}
+
+demnerf::geometry::MeshExtractionConfig NerfNodeConfig::extraction() const {
+  demnerf::geometry::MeshExtractionConfig extraction;
+  if (density_threshold > 0.0) {
+    extraction.surface = demnerf::geometry::SurfaceDefinition::kDensity;
+    extraction.threshold = density_threshold;
+  } else {
+    extraction.surface = demnerf::geometry::SurfaceDefinition::kOpacity;
+    extraction.opacity = surface_opacity;
+  }
+  return extraction;
+}
+
+demnerf::geometry::SamplerConfig NerfNodeConfig::sampling(const std::string& sampler, double spacing) const {
+  demnerf::geometry::SamplerConfig sampling;
+  sampling.method = demnerf::geometry::parseSamplingMethod(sampler);
+  sampling.spacing = spacing;  // <= 0: particlesFromModel picks one from the body's size
+  return sampling;
+}
+
 }  // namespace dem_nerf

@@ -6,6 +6,10 @@
 #include <string>
 #include <vector>
 
+#include "demnerf/geometry/mesh_from_density.hpp"
+#include "demnerf/geometry/particle_sampler.hpp"
+#include "demnerf/nerf/config.hpp"
+#include "nodes/nerf/frame_intake.hpp"
 #include "pipeline/surface_defaults.hpp"
 
 namespace dem_nerf {
@@ -38,6 +42,12 @@ struct NerfNodeConfig {
 
   /// Throws demnerf::core::Error naming the first bad parameter.
   static NerfNodeConfig fromParameters(const ros::NodeHandle& private_node);
+
+  // The library configs these parameters make, built here and nowhere else.
+  FrameIntakeConfig intake() const;  ///< frame checks, keyframe selection, colour key
+  demnerf::nerf::NerfConfig nerf() const;  ///< ~nerf_config's file (or defaults) with ~threads; validated
+  demnerf::geometry::MeshExtractionConfig extraction() const;  ///< opacity or density surface
+  demnerf::geometry::SamplerConfig sampling(const std::string& sampler, double spacing) const;
 };
 
 }  // namespace dem_nerf

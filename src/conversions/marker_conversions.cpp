@@ -1,4 +1,4 @@
-#include "nodes/dem/result_markers.hpp"
+#include "conversions/marker_conversions.hpp"
 
 #include <ros/time.h>
 
@@ -76,6 +76,32 @@ visualization_msgs::MarkerArray resultMarkers(const demnerf::core::Scenario& sce
   for (const auto& load : scenario.loads)
     markers.markers.push_back(forceArrow(load, frame, id++, largest > 0 ? 0.05 / largest : 0.0));
   return markers;
+}
+
+visualization_msgs::Marker meshMarker(const demnerf::core::TriangleMesh& mesh, const std::string& frame) {
+  visualization_msgs::Marker marker;
+  marker.header.frame_id = frame;
+  marker.header.stamp = ros::Time::now();
+  marker.ns = "nerf_mesh";
+  marker.type = visualization_msgs::Marker::TRIANGLE_LIST;
+  marker.action = visualization_msgs::Marker::ADD;
+  marker.pose.orientation.w = 1.0;
+  marker.scale.x = marker.scale.y = marker.scale.z = 1.0;
+  marker.color.r = 0.8f;
+  marker.color.g = 0.6f;
+  marker.color.b = 0.4f;
+  marker.color.a = 0.6f;
+  marker.points.reserve(mesh.faces.size() * 3);
+  for (const auto& face : mesh.faces) {
+    for (int corner : face) {
+      geometry_msgs::Point point;
+      point.x = mesh.vertices[corner].x();
+      point.y = mesh.vertices[corner].y();
+      point.z = mesh.vertices[corner].z();
+      marker.points.push_back(point);
+    }
+  }
+  return marker;
 }
 
 }  // namespace dem_nerf
