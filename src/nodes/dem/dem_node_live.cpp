@@ -99,6 +99,7 @@ std::optional<demnerf::mechanics::SimulationOutcome> DemNode::solveWithPatchBasi
   how = text.str();
   demnerf::mechanics::SimulationOutcome outcome;
   outcome.field = answer.field;
+  outcome.energy = answer.energy;
   for (const auto& u : outcome.field.displacements) outcome.max_displacement = std::max(outcome.max_displacement, u.norm());
   outcome.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return outcome;

@@ -1,5 +1,6 @@
 // dem_node's solve side: every request (topics and ~solve alike) becomes a job on the one
 // latest-wins worker; the DEM lives across solves in a DemSession (warm starts, parametric answers).
+#include <cmath>
 #include <sstream>
 
 #include "demnerf/core/error.hpp"
@@ -16,8 +17,13 @@ using demnerf::core::Error;
 std::string describe(const demnerf::mechanics::SimulationOutcome& outcome) {
   std::ostringstream text;
   text.precision(4);
-  text << outcome.field.size() << " particles, max displacement " << outcome.max_displacement * 1000.0
-       << " mm, energy " << outcome.energy << " J, " << outcome.seconds << " s";
+  text << outcome.field.size() << " particles, max displacement " << outcome.max_displacement * 1000.0 << " mm, ";
+  // A patch-basis answer superposes solves and has no energy of its own (NaN).
+  if (std::isfinite(outcome.energy))
+    text << "energy " << outcome.energy << " J, ";
+  else
+    text << "energy not computed, ";
+  text << outcome.seconds << " s";
   return text.str();
 }
 
