@@ -1,7 +1,8 @@
 #pragma once
 // Is a point inside the body a particle cloud describes? Within two particle spacings of surface
-// particles (area > 0, outward unit normal): when it lies behind the nearest one's tangent plane;
-// farther in, when the nearest particle carries volume. The cloud alone is enough, whichever sampler
+// particles (area > 0, outward unit normal): when it lies behind the nearest one's tangent plane
+// (with its neighbours' across an edge); farther from them, when the nearest particle carries
+// volume and lies within 1.5 spacings. The cloud alone is enough, whichever sampler
 // (random, Poisson disk, grid, a NeRF extraction) made it, so quadratures built on this test do not
 // depend on how the particles were placed.
 
