@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "demnerf/core/error.hpp"
+#include "demnerf/mechanics/loaded_share.hpp"
 #include "demnerf/mechanics/material.hpp"
 #include "demnerf/mechanics/solve_control.hpp"
 
@@ -90,20 +91,27 @@ Dirichlet resolveFixtures(const core::Scenario& scenario, const std::vector<Eige
 std::vector<Eigen::Vector3d> particleTractions(const core::Scenario& scenario, const core::ParticleCloud& cloud) {
   std::vector<Eigen::Vector3d> traction(cloud.size(), Eigen::Vector3d::Zero());
   for (const core::Load& load : scenario.loads) {
+    // Each surface particle loads the part of its area inside the region (loaded_share.hpp), so
+    // the patch's area and centroid do not depend on where the sampler put the particles. The
+    // wrench is spread over the particles' own positions, where the solvers apply the forces, so
+    // the applied torque stays exact.
     std::vector<int> patch;
     std::vector<Eigen::Vector3d> points;
-    std::vector<double> areas;
+    std::vector<double> areas, shares;
     for (std::size_t i = 0; i < cloud.size(); ++i) {
-      if (!cloud.isSurface(i) || !load.region.contains(cloud.positions[i])) continue;
+      if (!cloud.isSurface(i)) continue;
+      const double share = loadedShare(load.region, cloud.positions[i], cloud.normals[i], cloud.areas[i]);
+      if (!(share > 0.0)) continue;
       patch.push_back(static_cast<int>(i));
       points.push_back(cloud.positions[i]);
-      areas.push_back(cloud.areas[i]);
+      areas.push_back(share * cloud.areas[i]);
+      shares.push_back(share);
     }
     if (patch.empty())
       throw core::Error("load '" + load.name + "' selects no surface particles (area > 0): region " +
                         load.region.describe());
     const WrenchTraction field = spreadWrench(points, areas, load.force, load.torque, "load '" + load.name + "'");
-    for (std::size_t k = 0; k < patch.size(); ++k) traction[patch[k]] += field.at(points[k]);
+    for (std::size_t k = 0; k < patch.size(); ++k) traction[patch[k]] += shares[k] * field.at(points[k]);
   }
   return traction;
 }

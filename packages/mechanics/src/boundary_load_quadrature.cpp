@@ -1,7 +1,10 @@
 #include "demnerf/mechanics/boundary_load_quadrature.hpp"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <utility>
+
+#include "demnerf/mechanics/dirichlet_lift.hpp"
 
 namespace demnerf::mechanics {
 namespace {
@@ -30,14 +33,21 @@ void addLoadedPart(const TetMesh& mesh, const BoundaryFace& face, const core::Re
     if (v != face.opposite) local[k++] = v;
   const Eigen::Vector3d p0 = mesh.nodes[el[local[0]]], p1 = mesh.nodes[el[local[1]]], p2 = mesh.nodes[el[local[2]]];
   const double area = 0.5 * (p1 - p0).cross(p2 - p0).norm();
-  const bool whole = region.contains(p0) && region.contains(p1) && region.contains(p2);
+  // A face that ends the region (the T-bar's arm ends at x = 0.15) lies 6e-9 m outside it once the
+  // mesh went through a float32 PLY: points within a rounding tolerance count as inside.
+  const double tolerance =
+      1e-6 * (p0.cwiseAbs().maxCoeff() + std::max({(p1 - p0).norm(), (p2 - p0).norm(), (p2 - p1).norm()}));
+  const auto within = [&](const Eigen::Vector3d& q) {
+    return region.contains(q) || regionDistance(region, q) <= tolerance;
+  };
+  const bool whole = within(p0) && within(p1) && within(p2);
   const int m = whole ? 1 : kLoadSubdivision;
   // Sub-triangle corners in the face's barycentric coordinates: the m x m split into "up" (i, j),
   // (i + 1, j), (i, j + 1) and "down" (i + 1, j), (i + 1, j + 1), (i, j + 1) triangles.
   const auto bary = [m](int i, int j) -> Eigen::Vector3d { return Eigen::Vector3d(m - i - j, i, j) / m; };
   const auto add = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
     const Eigen::Vector3d centre = (a + b + c) / 3.0;
-    if (!whole && !region.contains(centre(0) * p0 + centre(1) * p1 + centre(2) * p2)) return;
+    if (!whole && !within(centre(0) * p0 + centre(1) * p1 + centre(2) * p2)) return;
     for (const auto& [r, w] : rule) {
       const Eigen::Vector3d beta = r(0) * a + r(1) * b + r(2) * c;
       Eigen::Vector4d L = Eigen::Vector4d::Zero();

@@ -84,14 +84,21 @@ class CellIntegrator {
   void addCutCell(const Eigen::Vector3d& lo, double edge, CellQuadrature& out) const {
     constexpr int kProbes = 6;  // per axis
     const double probe = edge / kProbes;
+    // Each probe counts with the share of its cube behind the surface, from the signed distance
+    // at its centre (exact for a face parallel to the cube's sides): counted whole or not at all,
+    // the probes quantise a face's position to a sixth of the sub-cell, and on the T-bar's 15 mm
+    // cells that lost 1.3 % of the volume on every cloud alike (the faces sat 0.19 mm inside).
     std::vector<Eigen::Vector3d> inside;
+    std::vector<double> fill;
     Eigen::Vector3d box_lo = lo + Eigen::Vector3d::Constant(edge), box_hi = lo;
     for (int k = 0; k < kProbes; ++k)
       for (int j = 0; j < kProbes; ++j)
         for (int i = 0; i < kProbes; ++i) {
           const Eigen::Vector3d p = lo + probe * (Eigen::Vector3d(i, j, k) + Eigen::Vector3d::Constant(0.5));
-          if (!inside_.inside(p)) continue;
+          const double share = std::clamp(0.5 - inside_.signedDistance(p) / probe, 0.0, 1.0);
+          if (!(share > 0.0)) continue;
           inside.push_back(p);
+          fill.push_back(share);
           box_lo = box_lo.cwiseMin(p);
           box_hi = box_hi.cwiseMax(p);
         }
@@ -102,13 +109,16 @@ class CellIntegrator {
     const int n = static_cast<int>(t_.size());
     std::vector<double> fitted(n * n * n, 0.0);
     const double probe_volume = probe * probe * probe;
-    const double inside_volume = probe_volume * static_cast<double>(inside.size());
+    double inside_volume = 0.0;
     std::vector<double> L[3];
-    for (const Eigen::Vector3d& p : inside) {
+    for (std::size_t q = 0; q < inside.size(); ++q) {
+      const Eigen::Vector3d& p = inside[q];
+      const double v = probe_volume * fill[q];
+      inside_volume += v;
       for (int a = 0; a < 3; ++a) L[a] = lagrange((p(a) - box_lo(a)) / size(a));
       for (int c = 0; c < n; ++c)
         for (int b = 0; b < n; ++b)
-          for (int a = 0; a < n; ++a) fitted[(c * n + b) * n + a] += probe_volume * L[0][a] * L[1][b] * L[2][c];
+          for (int a = 0; a < n; ++a) fitted[(c * n + b) * n + a] += v * L[0][a] * L[1][b] * L[2][c];
     }
     // Negative weights (a part that fills a corner of its box) would make the energy non-convex
     // there: they are dropped and the rest rescaled to the part's volume.

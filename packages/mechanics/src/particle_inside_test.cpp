@@ -69,7 +69,9 @@ Eigen::Vector3i ParticleInsideTest::bucket(const Eigen::Vector3d& x) const {
   return ((x - lower_) / bucket_).array().floor().cast<int>();
 }
 
-bool ParticleInsideTest::inside(const Eigen::Vector3d& x) const {
+bool ParticleInsideTest::inside(const Eigen::Vector3d& x) const { return signedDistance(x) <= 0.0; }
+
+double ParticleInsideTest::signedDistance(const Eigen::Vector3d& x) const {
   const Eigen::Vector3i c = bucket(x);
   // Near the surface: the side of the nearest surface particle's tangent plane (moved out by the
   // surface offset). Nearest, not a weighted blend of planes: a blend rounds convex edges by about
@@ -92,7 +94,7 @@ bool ParticleInsideTest::inside(const Eigen::Vector3d& x) const {
       nearest = i;
     }
   });
-  if (nearest >= 0) return behindSurfaceNear(x, nearest, nearby);
+  if (nearest >= 0) return distanceNear(x, nearest, nearby);
   // Away from the surface: the nearest particle within reach must carry volume (found in shells
   // of buckets; shell r holds every particle closer than r buckets).
   const int rings = static_cast<int>(std::ceil(reach_ / bucket_)) + 1;
@@ -113,7 +115,16 @@ bool ParticleInsideTest::inside(const Eigen::Vector3d& x) const {
         }
     if (best >= 0 && std::sqrt(best_d) <= r * bucket_) break;
   }
-  return best >= 0 && std::sqrt(best_d) <= reach_ && carries_[best];
+  // Deeper than the surface particles reach: only the side is known. Interior particles of a
+  // random cloud lie arbitrarily close under the surface, so a point outside a gap between surface
+  // particles (none within kSurfaceRadius) can have an interior particle nearest: within the full
+  // reach that counted bands up to 3 spacings outside a face as body (+0.5-1.3 % of the T-bar's
+  // volume on random clouds). Inside a cloud some particle is nearly always within kDeepReach
+  // spacings (a random cloud leaves a hole that large with probability e^-14), so with surface
+  // particles present that is the reach; without any, the caller's.
+  const double reach = surface_area_ > 0 ? std::min(reach_, kDeepReach * spacing_) : reach_;
+  const double far = (kSurfaceRadius + 1.0) * spacing_;
+  return best >= 0 && std::sqrt(best_d) <= reach && carries_[best] ? -far : far;
 }
 
 // Where faces meet, the nearest surface particle can sit on the other face: a point just outside a
@@ -121,24 +132,25 @@ bool ParticleInsideTest::inside(const Eigen::Vector3d& x) const {
 // spacing along every convex edge: +5.6 % of the T-bar's volume from a Poisson cloud at 14 mm).
 // So the planes of the surface particles about as near whose normals turn by more than 60 degrees
 // join in: across a convex edge (each particle behind the other's plane) the point must be behind
-// both, across a concave one behind either.
+// both, across a concave one behind either. As distances to the planes: the larger across a convex
+// edge (the intersection of the half-spaces), the smaller across a concave one (their union).
 template <typename Nearby>
-bool ParticleInsideTest::behindSurfaceNear(const Eigen::Vector3d& x, int nearest, Nearby&& nearby) const {
-  const auto behind = [&](int i) { return (x - positions_[i]).dot(normals_[i]) <= offset_; };
+double ParticleInsideTest::distanceNear(const Eigen::Vector3d& x, int nearest, Nearby&& nearby) const {
+  const auto distance = [&](int i) { return (x - positions_[i]).dot(normals_[i]) - offset_; };
   const Eigen::Vector3d& p = positions_[nearest];
   const Eigen::Vector3d& n = normals_[nearest];
   const double reach = (x - p).norm() + spacing_;
-  bool inside = behind(nearest);
+  double d = distance(nearest);
   nearby([&](int j) {
     if (normals_[j].dot(n) >= kEdgeCosine || (x - positions_[j]).squaredNorm() > reach * reach) return;
     const bool j_behind_nearest = (positions_[j] - p).dot(n) < 0;
     const bool nearest_behind_j = (p - positions_[j]).dot(normals_[j]) < 0;
     if (j_behind_nearest && nearest_behind_j)
-      inside = inside && behind(j);
+      d = std::max(d, distance(j));
     else if (!j_behind_nearest && !nearest_behind_j)
-      inside = inside || behind(j);
+      d = std::min(d, distance(j));
   });
-  return inside;
+  return d;
 }
 
 }  // namespace demnerf::mechanics

@@ -1,7 +1,8 @@
 #pragma once
 // Is a point inside the body a particle cloud describes? Within two particle spacings of surface
-// particles (area > 0, outward unit normal): when it lies behind the nearest one's tangent plane;
-// farther in, when the nearest particle carries volume. The cloud alone is enough, whichever sampler
+// particles (area > 0, outward unit normal): when it lies behind the nearest one's tangent plane
+// (with its neighbours' across an edge); farther from them, when the nearest particle carries
+// volume and lies within 1.5 spacings. The cloud alone is enough, whichever sampler
 // (random, Poisson disk, grid, a NeRF extraction) made it, so quadratures built on this test do not
 // depend on how the particles were placed.
 
@@ -19,6 +20,11 @@ class ParticleInsideTest {
   explicit ParticleInsideTest(const core::ParticleCloud& cloud, double reach = 3.0);
 
   bool inside(const Eigen::Vector3d& x) const;
+  /// Signed distance to the surface the particles describe (m; negative inside), from the tangent
+  /// planes of the nearest surface particles: exact for a planar face, and how the cell quadrature
+  /// measures the inside part of a small cube to better than the cube's size. Beyond the surface
+  /// particles' reach only the side is known: -/+ (kSurfaceRadius + 1) spacings.
+  double signedDistance(const Eigen::Vector3d& x) const;
   /// The cube root of the body's volume per volume-carrying particle (m).
   double spacing() const { return spacing_; }
   /// Sum of the particles' volumes (m^3).
@@ -32,6 +38,9 @@ class ParticleInsideTest {
 
  private:
   static constexpr double kSurfaceRadius = 2.0;  ///< in particle spacings
+  /// Beyond kSurfaceRadius of every surface particle, a point is inside when a volume-carrying
+  /// particle is within this many spacings (clouds with surface particles; signedDistance()).
+  static constexpr double kDeepReach = 1.5;
   /// Surface particles whose normals differ by more than this angle (cos 60 deg) lie on different
   /// faces: an edge between them (behindSurfaceNear).
   static constexpr double kEdgeCosine = 0.5;
@@ -40,7 +49,7 @@ class ParticleInsideTest {
   template <typename Visit>
   void forEachIn(const Eigen::Vector3i& c, Visit&& visit) const;
   template <typename Nearby>
-  bool behindSurfaceNear(const Eigen::Vector3d& x, int nearest, Nearby&& nearby) const;
+  double distanceNear(const Eigen::Vector3d& x, int nearest, Nearby&& nearby) const;
 
   std::vector<Eigen::Vector3d> positions_, normals_;
   std::vector<char> surface_;
