@@ -90,6 +90,73 @@ void plot(const std::vector<Row>& rows, const std::string& path, const std::stri
   cv::imwrite(path, img);
 }
 
+struct Budget {
+  long long iterations = 0;
+  double seconds = 60, cpu_seconds = 0, eval_every = 10;
+};
+struct Curve {
+  std::vector<Row> rows;
+  double trained = 0, cpu_trained = 0;  ///< wall and CPU seconds of training (evaluations excluded)
+  nerf::TrainProgress last;
+  bool by_cpu = false;
+};
+
+/// Trains to the budget, evaluating the held-out views every eval_every (wall or CPU) seconds.
+Curve trainCurve(nerf::Trainer& trainer, const core::Dataset& dataset, const Budget& b) {
+  // Budgets: --iterations N, or --seconds S of wall time, or --cpu-seconds C of this
+  // process's CPU time (C = 2 S on an idle 2-core machine; what a loaded machine inflates least).
+  const long long iterations = b.iterations;
+  const double cpu_budget = b.cpu_seconds, seconds = b.seconds, eval_every = b.eval_every;
+  const bool by_cpu = cpu_budget > 0;
+  const double budget = by_cpu ? cpu_budget : seconds;
+  Curve curve;
+  std::vector<Row>& rows = curve.rows;
+  double& trained = curve.trained;
+  double& cpu_trained = curve.cpu_trained;
+  double next_eval = eval_every;
+  Window window;
+  nerf::TrainProgress& last = curve.last;
+  if (iterations > 0) trainer.setBudget({0, iterations});
+  else if (!by_cpu) trainer.setBudget({seconds, 0});
+  for (;;) {
+    const double used = by_cpu ? cpu_trained : trained;
+    if (iterations > 0 ? trainer.iteration() >= iterations : used >= budget - 1e-6) break;
+    if (by_cpu && trainer.iteration() > 0) {
+      // The schedule decays over the CPU budget: steps expected at the rate so far.
+      trainer.setBudget({0, std::max<std::int64_t>(1, static_cast<std::int64_t>(
+                                                            trainer.iteration() * cpu_budget / cpu_trained))});
+    }
+    const double cpu0 = cpuSeconds();
+    const auto t0 = std::chrono::steady_clock::now();
+    const nerf::StepResult r = trainer.step(1);
+    trained += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    cpu_trained += cpuSeconds() - cpu0;
+    window.add(r);
+    const double now = by_cpu ? cpu_trained : trained;
+    if (iterations > 0 && trainer.iteration() % 100 == 0) {
+      std::fprintf(stderr, "nerf_train: it %lld  %.1f s (%.1f cpu s)  %.1f samples/ray  occupied %.1f%%\n",
+                   static_cast<long long>(trainer.iteration()), trained, cpu_trained,
+                   static_cast<double>(r.marched) / std::max<std::int64_t>(1, r.rays),
+                   100.0 * trainer.model().grid().occupiedFraction());
+    }
+    // The last point comes from main's final evaluation.
+    if (iterations > 0 || now < next_eval - 1e-9 || now >= budget - 1e-6) continue;
+    next_eval += eval_every;
+    last = window.progress(trainer, trained);
+    const nerf::Evaluation e = nerf::evaluate(trainer.model(), dataset.test, false);
+    rows.push_back({trained, last.psnr, e.psnr, last.rays_per_second, last.samples_per_second, last.samples_per_ray,
+                    static_cast<long long>(last.iteration), cpu_trained, e.samples_per_pixel});
+    std::fprintf(stderr, "nerf_train: %.1f s (%.1f cpu s)  it %lld  train %.2f dB  test %.2f dB  render %.3f s/view, "
+                 "%.1f samples/pixel, occupied %.1f%%\n", trained, cpu_trained, rows.back().iteration, last.psnr,
+                 e.psnr, e.seconds_per_view, e.samples_per_pixel, 100.0 * last.occupied_fraction);
+    window = Window();
+    window.seconds = trained;
+  }
+  last = window.progress(trainer, trained);
+  curve.by_cpu = by_cpu;
+  return curve;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -115,53 +182,13 @@ int main(int argc, char** argv) {
                  dataset.train.size(), dataset.test.size(), dataset.train[0].camera.width,
                  dataset.train[0].camera.height, dataset.bounds.sizes().x(), dataset.bounds.sizes().y(),
                  dataset.bounds.sizes().z(), dataset.aabb_scale);
-    // Budgets: --iterations N, or --seconds S of wall time, or --cpu-seconds C of this
-    // process's CPU time (C = 2 S on an idle 2-core machine; what a loaded machine inflates least).
-    const long long iterations = std::stoll(get("iterations", "0"));
-    const double cpu_budget = std::stod(get("cpu-seconds", "0"));
-    const bool by_cpu = cpu_budget > 0;
-    const double budget = by_cpu ? cpu_budget : seconds;
-    std::vector<Row> rows;
-    double trained = 0, cpu_trained = 0, next_eval = eval_every;
-    Window window;
-    nerf::TrainProgress last;
-    if (iterations > 0) trainer.setBudget({0, iterations});
-    else if (!by_cpu) trainer.setBudget({seconds, 0});
-    for (;;) {
-      const double used = by_cpu ? cpu_trained : trained;
-      if (iterations > 0 ? trainer.iteration() >= iterations : used >= budget - 1e-6) break;
-      if (by_cpu && trainer.iteration() > 0) {
-        // The schedule decays over the CPU budget: steps expected at the rate so far.
-        trainer.setBudget({0, std::max<std::int64_t>(1, static_cast<std::int64_t>(
-                                                              trainer.iteration() * cpu_budget / cpu_trained))});
-      }
-      const double cpu0 = cpuSeconds();
-      const auto t0 = std::chrono::steady_clock::now();
-      const nerf::StepResult r = trainer.step(1);
-      trained += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      cpu_trained += cpuSeconds() - cpu0;
-      window.add(r);
-      const double now = by_cpu ? cpu_trained : trained;
-      if (iterations > 0 && trainer.iteration() % 100 == 0) {
-        std::fprintf(stderr, "nerf_train: it %lld  %.1f s (%.1f cpu s)  %.1f samples/ray  occupied %.1f%%\n",
-                     static_cast<long long>(trainer.iteration()), trained, cpu_trained,
-                     static_cast<double>(r.marched) / std::max<std::int64_t>(1, r.rays),
-                     100.0 * trainer.model().grid().occupiedFraction());
-      }
-      // The last point comes from the final evaluation below.
-      if (iterations > 0 || now < next_eval - 1e-9 || now >= budget - 1e-6) continue;
-      next_eval += eval_every;
-      last = window.progress(trainer, trained);
-      const nerf::Evaluation e = nerf::evaluate(trainer.model(), dataset.test, false);
-      rows.push_back({trained, last.psnr, e.psnr, last.rays_per_second, last.samples_per_second, last.samples_per_ray,
-                      static_cast<long long>(last.iteration), cpu_trained, e.samples_per_pixel});
-      std::fprintf(stderr, "nerf_train: %.1f s (%.1f cpu s)  it %lld  train %.2f dB  test %.2f dB  render %.3f s/view, "
-                   "%.1f samples/pixel, occupied %.1f%%\n", trained, cpu_trained, rows.back().iteration, last.psnr,
-                   e.psnr, e.seconds_per_view, e.samples_per_pixel, 100.0 * last.occupied_fraction);
-      window = Window();
-      window.seconds = trained;
-    }
-    last = window.progress(trainer, trained);
+    const Curve curve = trainCurve(trainer, dataset,
+                                   {std::stoll(get("iterations", "0")), seconds, std::stod(get("cpu-seconds", "0")),
+                                    eval_every});
+    std::vector<Row> rows = curve.rows;
+    const double trained = curve.trained, cpu_trained = curve.cpu_trained;
+    const nerf::TrainProgress& last = curve.last;
+    const bool by_cpu = curve.by_cpu;
     if (get("final-eval", "1") == "0") {  // profiling runs: the training only
       std::printf("trained_cpu_seconds %.2f\ntrained_seconds %.2f\niterations %lld\n", cpu_trained, trained,
                   static_cast<long long>(trainer.iteration()));
