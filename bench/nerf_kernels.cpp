@@ -1,6 +1,6 @@
 // Kernel micro-benchmarks: the machine's sgemm GFLOP/s (LibTorch's BLAS) next to the NeRF's
 // own small-MLP kernel and the hash encoding, for a fraction-of-peak figure.
-//   nerf_kernels [--threads N]
+//   nerf_kernels [--threads N] | [--field]   (--field: only the per-sample field costs)
 
 #include <ATen/Parallel.h>
 #include <torch/torch.h>
@@ -10,11 +10,96 @@
 #include <random>
 #include <thread>
 
+#include <ctime>
+
+#include "demnerf/nerf/adam.hpp"
 #include "demnerf/nerf/hash_encoding.hpp"
 #include "demnerf/nerf/mlp.hpp"
+#include "demnerf/nerf/ngp_field.hpp"
 
 using namespace demnerf::nerf;
 using Clock = std::chrono::steady_clock;
+
+/// CPU seconds of the calling thread: per-sample costs that other jobs on a shared machine
+/// inflate far less than wall time.
+double threadSeconds() {
+  timespec ts;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}
+
+/// One thread's cost per sample of the field's chunk kernels (the training step's forward and
+/// backward, the renderer's query) in thread-CPU microseconds, on the fox's field (2^17-entry
+/// tables, finest level 2048) at points spread like one round of rays: runs of 8 along lines.
+void fieldCosts() {
+  demnerf::nerf::NerfConfig config;
+  config.hash.log2_table_size = 17;
+  const demnerf::nerf::Box box;
+  demnerf::nerf::NgpField field(config, box, 4.0, 1);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f), signed_unit(-1.0f, 1.0f);
+  for (float& v : field.table()) v = 1e-2f * signed_unit(rng);
+  const int n = NgpField::kChunk, chunks = 200;
+  std::vector<float> unit(3 * n * chunks), dirs(3 * n * chunks);
+  for (int s = 0; s < n * chunks; s += 8) {
+    float p[3] = {0.2f + 0.6f * u(rng), 0.2f + 0.6f * u(rng), 0.2f + 0.6f * u(rng)}, d[3], norm = 0;
+    for (float& v : d) norm += (v = signed_unit(rng)) * v;
+    for (int i = 0; i < 8; ++i)
+      for (int a = 0; a < 3; ++a) {
+        unit[3 * (s + i) + a] = p[a] + 0.01f * i * d[a] / std::sqrt(norm);
+        dirs[3 * (s + i) + a] = d[a] / std::sqrt(norm);
+      }
+  }
+  demnerf::nerf::FieldWorkspace ws;
+  demnerf::nerf::MlpGradients grads;
+  grads.density.assign(field.densityWeights().size(), 0.0f);
+  grads.color.assign(field.colorWeights().size(), 0.0f);
+  std::vector<float> sigma(n), rgb(3 * n), gs(n, 1e-3f), grgb(3 * n, 1e-3f), genc(n * field.hashLayout().outputDims());
+  std::vector<float> table_grad(field.table().size(), 0.0f);
+  double forward = 1e30, backward = 1e30, table = 1e30, encode = 1e30;
+  for (int repeat = 0; repeat < 3; ++repeat) {
+    double f = 0, b = 0, t = 0, e = 0;
+    for (int c = 0; c < chunks; ++c) {
+      const float* pu = unit.data() + 3 * n * c;
+      double t0 = threadSeconds();
+      field.forwardChunk(pu, dirs.data() + 3 * n * c, n, ws, sigma.data(), rgb.data());
+      double t1 = threadSeconds();
+      field.backwardChunk(n, ws, gs.data(), grgb.data(), grads, genc.data());
+      double t2 = threadSeconds();
+      hashEncodeBackwardTable(field.hashLayout(), pu, n, genc.data(), table_grad.data(), 0, field.hashLayout().levels);
+      const double t3 = threadSeconds();
+      hashEncodeForward(field.hashLayout(), field.table().data(), pu, n, genc.data());
+      e += threadSeconds() - t3;
+      t += t3 - t2;
+      f += t1 - t0;
+      b += t2 - t1;
+    }
+    forward = std::min(forward, f);
+    backward = std::min(backward, b);
+    table = std::min(table, t);
+    encode = std::min(encode, e);
+  }
+  // The table's Adam sweep as a training step runs it: every entry touched (the fox's case).
+  AdamMoments moments;
+  moments.resize(field.table().size());
+  const std::int64_t entries = field.hashLayout().total_entries;
+  std::vector<std::uint8_t> touched(entries);
+  double adam = 1e30;
+  for (int repeat = 0; repeat < 3; ++repeat) {
+    std::fill(touched.begin(), touched.end(), 1);
+    std::fill(table_grad.begin(), table_grad.end(), 1e-3f);
+    AdamHyper h;
+    h.step = repeat + 1;
+    const double t0 = threadSeconds();
+    adamTouched(h, field.table().data(), table_grad.data(), moments, 0, entries, 2, touched.data());
+    adam = std::min(adam, threadSeconds() - t0);
+  }
+  std::printf("table_adam_ms_per_step %.2f\n", 1e3 * adam);
+  const double per = 1e6 / (static_cast<double>(n) * chunks);
+  std::printf("field_forward_us_per_sample %.3f\nfield_forward_hash_part_us %.3f\nfield_forward_mlp_part_us %.3f\n"
+              "field_backward_mlp_us_per_sample %.3f\nfield_backward_table_us_per_sample %.3f\n",
+              forward * per, encode * per, (forward - encode) * per, backward * per, table * per);
+}
 
 template <typename F>
 double bestSeconds(F f, int repeats = 5) {
@@ -32,6 +117,8 @@ int main(int argc, char** argv) {
   if (argc == 3 && std::string(argv[1]) == "--threads") threads = std::stoi(argv[2]);
   at::set_num_threads(threads);
   std::printf("threads %d\n", threads);
+  fieldCosts();
+  if (argc == 2 && std::string(argv[1]) == "--field") return 0;
   for (int size : {256, 1024}) {
     auto a = torch::rand({size, size}), b = torch::rand({size, size});
     const double s = bestSeconds([&] { auto c = torch::mm(a, b); });

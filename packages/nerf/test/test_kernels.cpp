@@ -6,6 +6,7 @@
 #include <random>
 
 #include "demnerf/nerf/compositing.hpp"
+#include "demnerf/nerf/mlp.hpp"
 #include "demnerf/nerf/ngp_field.hpp"
 #include "demnerf/nerf/sh_encoding.hpp"
 #include "demnerf/nerf/torch_ops.hpp"
@@ -313,6 +314,42 @@ TEST(NgpField, ChunkBackwardMatchesFiniteDifferences) {
     ++checked;
   }
   EXPECT_GT(checked, 10);
+}
+
+// The blocked MLP kernels against plain double-precision loops, for every output width they
+// specialise (3, 16, 32, 64, 128), a width they do not (20), row counts that leave remainders
+// of the row blocks, and input widths that are and are not multiples of the vector width.
+TEST(MlpKernels, ProductsMatchPlainLoops) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  for (int out_dims : {3, 16, 20, 32, 64, 128}) {
+    for (int in_dims : {16, 32, 35}) {
+      for (int n : {1, 13, 256}) {
+        std::vector<float> in(n * in_dims), w(in_dims * out_dims), g(n * out_dims), out(n * out_dims);
+        for (float& v : in) v = u(rng);
+        for (float& v : w) v = u(rng);
+        for (float& v : g) v = u(rng);
+        std::vector<float> gw(in_dims * out_dims, 0.5f);
+        for (bool relu : {false, true}) {
+          matmulRows(in.data(), n, in_dims, w.data(), out_dims, out.data(), relu);
+          for (int r = 0; r < n; ++r)
+            for (int j = 0; j < out_dims; ++j) {
+              double want = 0;
+              for (int k = 0; k < in_dims; ++k) want += double(in[r * in_dims + k]) * w[k * out_dims + j];
+              if (relu) want = std::max(want, 0.0);
+              ASSERT_NEAR(out[r * out_dims + j], want, 1e-4) << out_dims << "x" << in_dims << " n " << n;
+            }
+        }
+        accumulateWeightGrad(in.data(), n, in_dims, g.data(), out_dims, gw.data());
+        for (int k = 0; k < in_dims; ++k)
+          for (int j = 0; j < out_dims; ++j) {
+            double want = 0.5;
+            for (int r = 0; r < n; ++r) want += double(in[r * in_dims + k]) * g[r * out_dims + j];
+            ASSERT_NEAR(gw[k * out_dims + j], want, 1e-3) << out_dims << "x" << in_dims << " n " << n;
+          }
+      }
+    }
+  }
 }
 
 }  // namespace
