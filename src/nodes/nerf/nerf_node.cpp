@@ -178,6 +178,12 @@ void NerfNode::publishStatus(const ros::TimerEvent&) {
     status.header.stamp = ros::Time::now();
     status.header.frame_id = config_.world_frame;
     const FrameIntakeCounts counts = intake_.counts();
+    status.intake.received = static_cast<uint32_t>(counts.received);
+    status.intake.keyframes = static_cast<uint32_t>(counts.keyframes);
+    status.intake.not_new = static_cast<uint32_t>(counts.not_new);
+    status.intake.rejected = static_cast<uint32_t>(counts.rejected);
+    status.intake.tf_missing = static_cast<uint32_t>(counts.tf_missing);
+    status.intake.tf_too_slow = static_cast<uint32_t>(counts.tf_too_slow);
     {
       std::lock_guard<std::mutex> lock(mutex_);
       status.stage = stage_;
