@@ -9,10 +9,13 @@
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_ros/static_transform_broadcaster.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 #include <functional>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -72,6 +75,22 @@ class StatusRecorder {
       ros::WallDuration(0.02).sleep();
     }
     return false;
+  }
+
+  /// dem_node: waits for a solve answered after the mark whose cause holds `cause` (~status's
+  /// last_solve, whose sequence grows with each answer); its figures, or nothing on timeout.
+  std::optional<dem_nerf::SolveAnswer> waitForSolve(const std::string& cause, double seconds) {
+    std::uint32_t before = 0;  // the latest answer seen before the mark
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      for (std::size_t i = 0; i < mark_; ++i) before = std::max(before, received_[i].last_solve.sequence);
+    }
+    dem_nerf::TrainingStatus found;
+    const auto answered = [&](const dem_nerf::TrainingStatus& status) {
+      return status.last_solve.sequence > before && status.last_solve.cause.find(cause) != std::string::npos;
+    };
+    if (!waitUntil(answered, seconds, &found)) return std::nullopt;
+    return found.last_solve;
   }
 
   /// Later waits only look at statuses that arrive from now on.

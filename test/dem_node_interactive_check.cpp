@@ -63,9 +63,9 @@ class InteractiveCheck : public ::testing::Test {
     }
   }
 
-  // The displaced cloud of the next solve whose status holds `cause`.
+  // The displaced cloud of the next solve whose cause (~status's last_solve) holds `cause`.
   std::optional<Deflection> answer(dem_nerf_test::StatusRecorder& status, const std::string& cause) {
-    if (status.waitFor("solved", cause, 60).empty()) return std::nullopt;
+    if (!status.waitForSolve(cause, 60)) return std::nullopt;
     ros::WallDuration(0.2).sleep();  // the cloud goes out before the status
     ros::spinOnce();
     std::lock_guard<std::mutex> lock(mutex_);

@@ -1,6 +1,6 @@
-// rostest node: dem_node's parametric DEM answers a scaled wrench without training (its status
-// says "instant", and the displacement scales with the load), and trains again for a wrench in
-// another direction.
+// rostest node: dem_node's parametric DEM answers a scaled wrench without training (~status's
+// last_solve says instant_parametric at that scale, and the displacement scales with the load),
+// and trains again for a wrench in another direction.
 
 #include <dem_nerf/TrainingStatus.h>
 #include <geometry_msgs/WrenchStamped.h>
@@ -10,6 +10,7 @@
 #include <sensor_msgs/point_cloud2_iterator.h>
 #include <tf2_ros/static_transform_broadcaster.h>
 
+#include <cstdint>
 #include <cstdio>
 #include <mutex>
 #include <optional>
@@ -23,7 +24,7 @@ namespace {
 struct Answer {
   double tip_uz = 0.0;   // mean z displacement of the free end
   double seconds = 0.0;  // wall time from the wrench to the displaced cloud
-  std::string how;       // the solved status message
+  dem_nerf::SolveAnswer how;  // ~status's last_solve for this wrench
 };
 
 class ParametricCheck {
@@ -37,17 +38,19 @@ class ParametricCheck {
     status_subscriber_ = node_.subscribe<dem_nerf::TrainingStatus>(
         "/dem_node/status", 10, [this](const dem_nerf::TrainingStatusConstPtr& message) {
           std::lock_guard<std::mutex> lock(mutex_);
-          if (message->stage == "solved") solved_message_ = message->message;
+          // Every later status repeats the latest answer: a new one has a higher sequence.
+          if (message->last_solve.sequence > latest_.sequence) latest_ = message->last_solve;
         });
     wrenches_ = node_.advertise<geometry_msgs::WrenchStamped>("/dem_node/wrench", 1, true);
   }
 
   // Sends a wrench in the tool frame and waits for the displaced cloud answering it.
   std::optional<Answer> apply(double fy, double fz) {
+    std::uint32_t before = 0;
     {
       std::lock_guard<std::mutex> lock(mutex_);
       displaced_.reset();
-      solved_message_.clear();
+      before = latest_.sequence;
     }
     geometry_msgs::WrenchStamped wrench;
     wrench.header.frame_id = "tool";
@@ -61,10 +64,10 @@ class ParametricCheck {
       ros::spinOnce();
       {
         std::lock_guard<std::mutex> lock(mutex_);
-        if (displaced_ && !solved_message_.empty()) {
+        if (displaced_ && latest_.sequence > before) {
           Answer answer;
           answer.seconds = (ros::WallTime::now() - start).toSec();
-          answer.how = solved_message_;
+          answer.how = latest_;
           const auto field = dem_nerf::resultFromPointCloud2(*displaced_, /*displaced_positions=*/true);
           int count = 0;
           for (std::size_t i = 0; i < field.size(); ++i) {
@@ -87,7 +90,7 @@ class ParametricCheck {
   ros::Publisher wrenches_;
   std::mutex mutex_;
   std::optional<sensor_msgs::PointCloud2> displaced_;
-  std::string solved_message_;
+  dem_nerf::SolveAnswer latest_;
 };
 
 TEST(DemNodeParametric, ScaledWrenchesAreAnsweredWithoutTraining) {
@@ -101,18 +104,19 @@ TEST(DemNodeParametric, ScaledWrenchesAreAnsweredWithoutTraining) {
   ros::WallDuration(0.5).sleep();
   const auto trained = check.apply(0.0, -0.002);
   ASSERT_TRUE(trained) << "no answer to the first wrench within 60 s";
-  EXPECT_NE(trained->how.find("cold DEM"), std::string::npos) << trained->how;
+  EXPECT_EQ(trained->how.answered_by, dem_nerf::SolveAnswer::COLD);
   const auto half = check.apply(0.0, -0.001);
   ASSERT_TRUE(half) << "no answer to the scaled wrench within 60 s";
   std::printf("trained answer %.2f s (%s), scaled answer %.2f s (%s); tip uz %.3g -> %.3g m\n", trained->seconds,
-              trained->how.c_str(), half->seconds, half->how.c_str(), trained->tip_uz, half->tip_uz);
-  EXPECT_NE(half->how.find("instant"), std::string::npos) << half->how;
+              trained->how.answered_by.c_str(), half->seconds, half->how.answered_by.c_str(), trained->tip_uz, half->tip_uz);
+  EXPECT_EQ(half->how.answered_by, dem_nerf::SolveAnswer::INSTANT_PARAMETRIC);
+  EXPECT_NEAR(half->how.load_scale, 0.5, 1e-6) << "half the trained wrench";
   EXPECT_LT(trained->tip_uz, -1e-5);
   // Small loads: nearly linear, so half the force moves the tip about half as far.
   EXPECT_NEAR(half->tip_uz / trained->tip_uz, 0.5, 0.1);
   const auto turned = check.apply(-0.002, 0.0);
   ASSERT_TRUE(turned) << "no answer to the turned wrench within 60 s";
-  EXPECT_NE(turned->how.find("warm DEM"), std::string::npos) << turned->how;
+  EXPECT_EQ(turned->how.answered_by, dem_nerf::SolveAnswer::WARM);
 }
 
 }  // namespace

@@ -188,7 +188,8 @@ TEST(DemNodeRender, CorruptModelsAreRefusedAndTheDeformedObjectIsRendered) {
   std::string message;
   EXPECT_TRUE(spinUntil([&] { return solve(-0.01, &message); }, 30)) << message;
   // Lazy: nobody listens to ~rendered, so nothing was rendered (without tf it would have failed).
-  EXPECT_NE(dem_status.waitFor("", "0 renders", 5), "");
+  EXPECT_TRUE(dem_status.waitUntil(
+      [](const dem_nerf::TrainingStatus& s) { return s.last_solve.sequence > 0 && s.renders == 0; }, 5));
   EXPECT_FALSE(dem_status.sawError("~rendered"));
 
   // A subscriber arrives: the latest result is rendered at once, and the missing tf is reported.
@@ -260,7 +261,9 @@ TEST(DemNodeRender, CorruptModelsAreRefusedAndTheDeformedObjectIsRendered) {
   // depends on the NeRF's extracted body (measured 0.2-3.9 px for free-end moves of 3.7-11.7 px).
   EXPECT_LT(std::abs(root_large - root_small), 0.5 * (tip_large - tip_small))
       << "the clamped end should move much less than the loaded one";
-  EXPECT_NE(dem_status.waitFor("", "renders (last 96x64", 5), "");
+  // ~status counts the renders it published (each one an image here).
+  const std::size_t received = imageCount();
+  EXPECT_TRUE(dem_status.waitUntil([&](const dem_nerf::TrainingStatus& s) { return s.renders >= received; }, 5));
 }
 
 }  // namespace

@@ -5,24 +5,30 @@
 #include <ros/ros.h>
 
 #include <atomic>
+#include <mutex>
 
 TEST(NerfNodeIntake, ReplayedImagesBecomeKeyframes) {
   ros::NodeHandle node;
   std::atomic<unsigned> frames{0};
-  std::string last_message;
+  std::mutex mutex;
+  dem_nerf::TrainingStatus last;
   auto subscriber = node.subscribe<dem_nerf::TrainingStatus>(
       "/nerf_node/status", 10, [&](const dem_nerf::TrainingStatusConstPtr& status) {
         frames = status->frames;
-        last_message = status->message;
+        std::lock_guard<std::mutex> lock(mutex);
+        last = *status;
       });
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(40);
   while (ros::ok() && ros::WallTime::now() < deadline && frames < 10) {
     ros::spinOnce();
     ros::WallDuration(0.05).sleep();
   }
-  EXPECT_GE(frames.load(), 10u) << last_message;
-  EXPECT_NE(last_message.find(" 0 rejected"), std::string::npos) << last_message;
-  EXPECT_NE(last_message.find(" 0 without tf"), std::string::npos) << last_message;
+  std::lock_guard<std::mutex> lock(mutex);
+  EXPECT_GE(frames.load(), 10u) << last.message;
+  EXPECT_EQ(last.intake.rejected, 0u) << last.message;
+  EXPECT_EQ(last.intake.tf_missing, 0u) << last.message;
+  EXPECT_GE(last.intake.received, last.intake.keyframes) << last.message;
+  EXPECT_GT(last.intake.keyframes, 0u) << last.message;
 }
 
 int main(int argc, char** argv) {

@@ -15,6 +15,7 @@
 #include <optional>
 
 #include "check_helpers.hpp"
+#include "demnerf/nerf/training_record.hpp"
 
 namespace {
 
@@ -50,24 +51,12 @@ class NerfNodeProcess {
   pid_t pid_ = -1;
 };
 
-struct Record {
-  long long iteration = -1;
-  double seconds = -1;
-  double psnr = 0;
-};
+using Record = demnerf::nerf::TrainingRecord;
 
-std::optional<Record> readRecord(const std::string& path) {
-  std::ifstream file(path);
-  if (!file) return std::nullopt;
-  Record record;
-  std::string key;
-  while (file >> key) {
-    if (key == "iteration") file >> record.iteration;
-    if (key == "seconds") file >> record.seconds;
-    if (key == "psnr") file >> record.psnr;
-  }
-  if (record.iteration < 0) return std::nullopt;
-  return record;
+/// The training record in the model file's header; nothing while there is no file yet.
+std::optional<Record> readRecord(const std::string& model_path) {
+  if (!std::filesystem::exists(model_path)) return std::nullopt;
+  return demnerf::nerf::readTrainingRecord(model_path);  // files are renamed into place: never torn
 }
 
 bool training(const dem_nerf::TrainingStatus& status) { return status.stage == "training" && status.iteration > 0; }
@@ -78,9 +67,7 @@ TEST(NerfNodeResume, ResumesFromTheAutosaveAfterSigkill) {
   double autosave_seconds = 0;
   ASSERT_TRUE(ros::param::get("/nerf_node/model_path", model_path));
   ASSERT_TRUE(ros::param::get("/nerf_node/autosave_seconds", autosave_seconds));
-  const std::string record_path = model_path + ".progress";
   std::filesystem::remove(model_path);
-  std::filesystem::remove(record_path);
   StatusRecorder status(node, "/nerf_node/status");
 
   // --- First run: train until at least one autosave, a little longer, then SIGKILL.
@@ -91,11 +78,11 @@ TEST(NerfNodeResume, ResumesFromTheAutosaveAfterSigkill) {
   // loaded, so this waits on the figure, not on a fixed time), then kill between two autosaves.
   ASSERT_TRUE(dem_nerf_test::spinUntil(
       [&] {
-        const std::optional<Record> record = readRecord(record_path);
+        const std::optional<Record> record = readRecord(model_path);
         return record && record->psnr > first_report.psnr + 1.5;
       },
       30))
-      << "no autosave (model + " << record_path << ") 1.5 dB better than the first report within 30 s";
+      << "no autosave (" << model_path << ", its header's record) 1.5 dB better than the first report within 30 s";
   ros::WallDuration(autosave_seconds + 0.7).sleep();
   status.mark();
   dem_nerf::TrainingStatus last_report;
@@ -108,12 +95,12 @@ TEST(NerfNodeResume, ResumesFromTheAutosaveAfterSigkill) {
   first->kill(SIGKILL);
   const double rate = (later_report.iteration - last_report.iteration) /
                       std::max(1e-3, (later_report.header.stamp - last_report.header.stamp).toSec());
-  const std::optional<Record> saved = readRecord(record_path);
+  const std::optional<Record> saved = readRecord(model_path);
   ASSERT_TRUE(saved.has_value());
   ASSERT_TRUE(std::filesystem::exists(model_path));
   std::printf("killed after iteration >= %u (%.1f it/s; first report: iteration %u, %.2f dB); autosave holds "
               "iteration %lld, %.1f s, %.2f dB\n",
-              later_report.iteration, rate, first_report.iteration, first_report.psnr, saved->iteration,
+              later_report.iteration, rate, first_report.iteration, first_report.psnr, static_cast<long long>(saved->iteration),
               saved->seconds, saved->psnr);
   EXPECT_LE(saved->iteration, static_cast<long long>(later_report.iteration) + rate * 1.5)
       << "the autosave claims more iterations than were trained";

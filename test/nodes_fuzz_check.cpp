@@ -462,7 +462,12 @@ TEST_F(NodesFuzz, IssueReproducersAreRefusedAndBothNodesLive) {
   dem.mark();
   wrench.wrench = geometry_msgs::Wrench();
   wrench_.publish(wrench);
-  EXPECT_NE(dem.waitFor("solved", "wrench: ", 15), "");
+  EXPECT_TRUE(dem.waitUntil(
+      [](const dem_nerf::TrainingStatus& s) {
+        return s.last_solve.cause == "wrench" && s.last_solve.answered_by == dem_nerf::SolveAnswer::NO_LOAD;
+      },
+      15))
+      << "a zero wrench is answered with zero displacement";
   // An empty FixtureArray clears the fixtures: the next solve is refused for want of supports.
   dem.mark();
   array.fixtures.clear();

@@ -1,10 +1,12 @@
 #include "demnerf/nerf/model_io.hpp"
 
+#include <cmath>
 #include <cstring>
 #include <nlohmann/json.hpp>
 
 #include "demnerf/core/error.hpp"
 #include "demnerf/core/model_container.hpp"
+#include "demnerf/nerf/training_record.hpp"
 
 namespace demnerf::nerf {
 namespace {
@@ -18,9 +20,38 @@ void append(std::string& out, const T* data, std::size_t count) {
   out.append(reinterpret_cast<const char*>(data), count * sizeof(T));
 }
 
+nlohmann::json parseHeader(const core::ModelContainer& container, const std::string& where) {
+  try {
+    return nlohmann::json::parse(container.header);
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(where + " is corrupt: header is not valid JSON (" + e.what() + ")");
+  }
+}
+
 }  // namespace
 
-void saveModel(const NerfModel& model, const std::string& path) {
+std::optional<TrainingRecord> readTrainingRecord(const std::string& path) {
+  const core::ModelContainer container = core::readModelContainer(path, kMagic, kModelFileVersion, kWhat);
+  const std::string where = std::string(kWhat) + " file '" + path + "'";
+  const nlohmann::json header = parseHeader(container, where);
+  if (!header.contains("training")) return std::nullopt;
+  TrainingRecord record;
+  try {
+    const nlohmann::json& t = header.at("training");
+    record.iteration = t.at("iteration").get<std::int64_t>();
+    record.seconds = t.at("seconds").get<double>();
+    record.psnr = t.at("psnr").get<double>();
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(where + ": its training record needs iteration, seconds and psnr (" + e.what() + ")");
+  }
+  if (record.iteration < 0 || !std::isfinite(record.seconds) || record.seconds < 0 || !std::isfinite(record.psnr))
+    throw Error(where + ": its training record is malformed (iteration and seconds must be >= 0, all finite)");
+  return record;
+}
+
+namespace {
+
+void writeModel(const NerfModel& model, const std::string& path, const std::optional<TrainingRecord>& record) {
   const NgpField& f = model.ngp();
   const OccupancyGrid& g = model.grid();
   const Box box = model.bounds();
@@ -28,6 +59,7 @@ void saveModel(const NerfModel& model, const std::string& path) {
   header["config"] = toJson(model.config());
   header["aabb_scale"] = model.aabbScale();
   header["bounds"] = {{box.min[0], box.min[1], box.min[2]}, {box.max[0], box.max[1], box.max[2]}};
+  if (record) header["training"] = {{"iteration", record->iteration}, {"seconds", record->seconds}, {"psnr", record->psnr}};
   header["blobs"] = {
       {{"name", "hash_table"}, {"floats", f.table().size()}},
       {{"name", "density_mlp"}, {"floats", f.densityWeights().size()}},
@@ -47,15 +79,18 @@ void saveModel(const NerfModel& model, const std::string& path) {
   core::writeModelContainer(path, kMagic, container, kWhat);
 }
 
+}  // namespace
+
+void saveModel(const NerfModel& model, const std::string& path) { writeModel(model, path, std::nullopt); }
+
+void saveModel(const NerfModel& model, const std::string& path, const TrainingRecord& record) {
+  writeModel(model, path, record);
+}
+
 NerfModel loadModel(const std::string& path) {
   const core::ModelContainer container = core::readModelContainer(path, kMagic, kModelFileVersion, kWhat);
   const std::string where = std::string(kWhat) + " file '" + path + "'";
-  nlohmann::json header;
-  try {
-    header = nlohmann::json::parse(container.header);
-  } catch (const nlohmann::json::exception& e) {
-    throw Error(where + " is corrupt: header is not valid JSON (" + e.what() + ")");
-  }
+  const nlohmann::json header = parseHeader(container, where);
   std::vector<std::pair<std::string, std::size_t>> blobs;
   std::size_t expected = 0;
   try {

@@ -195,12 +195,17 @@ TEST_F(TinyScene, BackgroundTrainerAutosavesAndATrainerResumesFromTheFile) {
   config.stop.iterations = 150;
   config.autosave_seconds = 0.5;
   config.model_path = path;
+  config.earlier = {1000, 5.0, 0.0};  // as if resumed from a model trained 1000 steps for 5 s
   std::atomic<int> progress_reports{0};
   std::atomic<bool> done{false};
+  std::atomic<std::int64_t> final_iteration{0};
   std::string error;
   BackgroundTrainerCallbacks callbacks;
   callbacks.progress = [&](const TrainProgress&) { ++progress_reports; };
-  callbacks.done = [&](const NerfModel&, const TrainProgress& p) { done = p.iteration >= 150; };
+  callbacks.done = [&](const NerfModel&, const TrainProgress& p) {
+    final_iteration = p.iteration;
+    done = p.iteration >= 150;
+  };
   callbacks.error = [&](const std::string& message) { error = message; };
   {
     BackgroundTrainer background(std::move(trainer), config, callbacks);
@@ -213,6 +218,12 @@ TEST_F(TinyScene, BackgroundTrainerAutosavesAndATrainerResumesFromTheFile) {
   EXPECT_TRUE(done) << error;
   EXPECT_TRUE(error.empty()) << error;
   ASSERT_TRUE(std::filesystem::exists(path));
+  // The final save's header continues the earlier training's count and time.
+  const std::optional<TrainingRecord> record = readTrainingRecord(path);
+  ASSERT_TRUE(record.has_value());
+  EXPECT_EQ(record->iteration, 1000 + final_iteration.load());
+  EXPECT_GT(record->seconds, 5.0);
+  EXPECT_GT(record->psnr, 10.0);
   Trainer resumed(loadModel(path));
   resumed.addFrames(*train_);
   const double before = evaluate(resumed.model(), *test_, false).psnr;
@@ -228,6 +239,14 @@ TEST_F(TinyScene, ModelFileRoundTripRendersIdentically) {
   const std::string path = (std::filesystem::temp_directory_path() / "demnerf_test_model.nerf").string();
   saveModel(trainer.model(), path);
   const NerfModel loaded = loadModel(path);
+  EXPECT_FALSE(readTrainingRecord(path).has_value()) << "saved without a training record";
+  saveModel(trainer.model(), path, TrainingRecord{30, 1.5, 20.0});
+  const std::optional<TrainingRecord> record = readTrainingRecord(path);
+  ASSERT_TRUE(record.has_value());
+  EXPECT_EQ(record->iteration, 30);
+  EXPECT_EQ(record->seconds, 1.5);
+  EXPECT_EQ(record->psnr, 20.0);
+  EXPECT_NO_THROW(loadModel(path)) << "a header with a record still loads";
   const core::Frame& view = test_->front();
   const RenderedImage a = renderImage(trainer.model(), view.camera, view.world_from_camera);
   const RenderedImage b = renderImage(loaded, view.camera, view.world_from_camera);

@@ -8,6 +8,7 @@
 #include <dem_nerf/LoadCase.h>
 #include <dem_nerf/ModelInfo.h>
 #include <dem_nerf/Solve.h>
+#include <dem_nerf/SolveAnswer.h>
 #include <geometry_msgs/WrenchStamped.h>
 #include <image_transport/image_transport.h>
 #include <ros/ros.h>
@@ -60,6 +61,12 @@ class DemNode {
     /// Set for a ~solve call: its caller waits for this (an outcome or the error).
     std::shared_ptr<std::promise<demnerf::mechanics::SimulationOutcome>> reply;
   };
+  /// How a job was answered: the figures for ~status's last_solve, and the same in words for its
+  /// message ("instant (patch basis, 2 ms)").
+  struct SolveReport {
+    dem_nerf::SolveAnswer figures;
+    std::string how;
+  };
   /// One image for ~rendered: a newer result replaces one not rendered yet.
   struct RenderJob {
     demnerf::core::ResultField result;
@@ -81,7 +88,7 @@ class DemNode {
   /// With ~patch_basis_force_range: a one-load DEM job answered through the patch basis
   /// (prepared on the first wrench on a patch), or nothing when it does not apply.
   std::optional<demnerf::mechanics::SimulationOutcome> solveWithPatchBasis(
-      const SolveJob& job, const demnerf::mechanics::SolveControl& control, std::string& how);
+      const SolveJob& job, const demnerf::mechanics::SolveControl& control, SolveReport& report);
   /// A new ~rendered subscriber gets the latest result rendered at once.
   void onRenderSubscriber(const image_transport::SingleSubscriberPublisher&);
   bool solve(dem_nerf::Solve::Request& request, dem_nerf::Solve::Response& response);
@@ -95,11 +102,11 @@ class DemNode {
   /// run longer than ~supersede_after (and serves no ~solve caller) is cancelled.
   void submitSolve(SolveJob job);
   void runSolve(const SolveJob& job);
-  demnerf::mechanics::SimulationOutcome solveJob(const SolveJob& job, std::string& how);
-  /// The DEM solve of a job through dem_session_; `how` says instant / warm / cold.
+  demnerf::mechanics::SimulationOutcome solveJob(const SolveJob& job, SolveReport& report);
+  /// The DEM solve of a job through dem_session_; the report says instant / warm / cold.
   demnerf::mechanics::SimulationOutcome solveWithSession(const SolveJob& job,
                                                          const demnerf::mechanics::SolveControl& control,
-                                                         std::string& how);
+                                                         SolveReport& report);
   /// Counts a failed solve by its cause (SolveError's failure, or the exception kind).
   void reportSolveFailure(const SolveJob& job, const std::string& cause, const std::string& message);
   /// Transforms a cloud from its message frame into ~particles_frame through tf (or refuses).
@@ -137,6 +144,7 @@ class DemNode {
   std::string stage_ = "idle";
   std::string last_error_;
   std::string last_figures_;
+  dem_nerf::SolveAnswer last_answer_;  ///< ~status's last_solve (sequence 0: nothing answered yet)
   std::string model_info_path_, model_info_frame_;  ///< from the last ModelInfo on `model`
   std::optional<demnerf::core::PinholeCamera> render_camera_;  ///< from ~render_camera_info
   std::optional<demnerf::core::ResultField> last_result_;      ///< what a new subscriber sees

@@ -67,7 +67,7 @@ void DemNode::onFixtureBox(const Eigen::Vector3d& center, const Eigen::Vector3d&
 }
 
 std::optional<demnerf::mechanics::SimulationOutcome> DemNode::solveWithPatchBasis(
-    const SolveJob& job, const demnerf::mechanics::SolveControl& control, std::string& how) {
+    const SolveJob& job, const demnerf::mechanics::SolveControl& control, SolveReport& report) {
   // The basis superposes grid-Newton solves of one wrench on one patch.
   const demnerf::mechanics::DemConfig& dem = job.settings.options.dem;
   if (!(patch_basis_config_.force_range > 0.0) || dem.parametric.enabled || job.scenario.loads.size() != 1) return std::nullopt;
@@ -89,14 +89,20 @@ std::optional<demnerf::mechanics::SimulationOutcome> DemNode::solveWithPatchBasi
     patch_basis_model_ = job.settings.model_generation;
     text << "patch basis prepared (" << patch_basis_->preparationSolves() << " DEM solves, "
          << patch_basis_->preparationSeconds() << " s), then ";
+    report.figures.basis_prepared = true;
+    report.figures.basis_solves = static_cast<std::uint32_t>(patch_basis_->preparationSolves());
+    report.figures.basis_seconds = patch_basis_->preparationSeconds();
   }
   const demnerf::core::Load& load = job.scenario.loads.front();
   const demnerf::mechanics::PatchAnswer answer = patch_basis_->answer(load.force, load.torque, control);
-  if (answer.path == "basis")
+  if (answer.path == "basis") {
     text << "instant (patch basis, " << answer.seconds * 1000.0 << " ms)";
-  else
+    report.figures.answered_by = dem_nerf::SolveAnswer::PATCH_BASIS;
+  } else {
     text << "full DEM solve, warm-started (wrench outside the patch basis range)";
-  how = text.str();
+    report.figures.answered_by = dem_nerf::SolveAnswer::PATCH_BASIS_OUTSIDE;
+  }
+  report.how = text.str();
   demnerf::mechanics::SimulationOutcome outcome;
   outcome.field = answer.field;
   outcome.energy = answer.energy;

@@ -92,7 +92,7 @@ void DemNode::submitSolve(SolveJob job) {
 
 demnerf::mechanics::SimulationOutcome DemNode::solveWithSession(const SolveJob& job,
                                                                const demnerf::mechanics::SolveControl& control,
-                                                               std::string& how) {
+                                                               SolveReport& report) {
   // Live settings that change the material or the DEM's settings need a new DEM.
   if (!dem_session_ || session_model_generation_ != job.settings.model_generation) {
     dem_session_ = std::make_unique<demnerf::mechanics::DemSession>(job.settings.options.dem);
@@ -104,16 +104,21 @@ demnerf::mechanics::SimulationOutcome DemNode::solveWithSession(const SolveJob& 
     session_generation_ = job.cloud_generation;
   }
   const demnerf::mechanics::DemSessionAnswer answer = dem_session_->answer(job.scenario, control);
-  how = answer.mode == "instant" ? "instant (parametric, load x" + std::to_string(answer.load_scale) + ")"
-                                 : answer.mode + " DEM";
+  const bool instant = answer.mode == "instant";
+  report.how = instant ? "instant (parametric, load x" + std::to_string(answer.load_scale) + ")" : answer.mode + " DEM";
+  report.figures.answered_by = instant                ? dem_nerf::SolveAnswer::INSTANT_PARAMETRIC
+                               : answer.mode == "warm" ? dem_nerf::SolveAnswer::WARM
+                                                       : dem_nerf::SolveAnswer::COLD;
+  if (instant) report.figures.load_scale = answer.load_scale;
   return answer.outcome;
 }
 
-demnerf::mechanics::SimulationOutcome DemNode::solveJob(const SolveJob& job, std::string& how) {
+demnerf::mechanics::SimulationOutcome DemNode::solveJob(const SolveJob& job, SolveReport& report) {
   // Degenerate set-ups and bad regions are refused here, before any solver factorises anything.
   demnerf::mechanics::validateProblem(job.scenario, job.cloud);
   if (loadFree(job.scenario)) {
-    how = "no load: zero displacement";
+    report.how = "no load: zero displacement";
+    report.figures.answered_by = dem_nerf::SolveAnswer::NO_LOAD;
     return zeroOutcome(job.cloud);
   }
   demnerf::mechanics::SimulateOptions options = job.settings.options;
@@ -124,10 +129,12 @@ demnerf::mechanics::SimulationOutcome DemNode::solveJob(const SolveJob& job, std
   };
   // The DEM lives across solves (warm starts; with ~parametric, scaled loads need no training);
   // the baselines solve from scratch.
-  if (job.settings.solver != demnerf::mechanics::SolverChoice::kDem)
+  if (job.settings.solver != demnerf::mechanics::SolverChoice::kDem) {
+    report.figures.answered_by = dem_nerf::SolveAnswer::BASELINE;
     return demnerf::mechanics::simulate(job.cloud, job.scenario, job.settings.solver, options);
-  if (auto outcome = solveWithPatchBasis(job, options.control, how)) return *outcome;
-  return solveWithSession(job, options.control, how);
+  }
+  if (auto outcome = solveWithPatchBasis(job, options.control, report)) return *outcome;
+  return solveWithSession(job, options.control, report);
 }
 
 void DemNode::runSolve(const SolveJob& job) {
@@ -152,15 +159,24 @@ void DemNode::runSolve(const SolveJob& job) {
   }
   std::exception_ptr failure;
   try {
-    std::string how;
-    const demnerf::mechanics::SimulationOutcome outcome = solveJob(job, how);
+    SolveReport report;
+    const demnerf::mechanics::SimulationOutcome outcome = solveJob(job, report);
     publishResult(outcome, job.scenario);
     const SolutionExport::Report exported = export_.write(job.cloud, outcome);  // never throws
-    const std::string figures = describe(outcome) + (how.empty() ? "" : ", " + how) + exported.note;
+    const std::string figures = describe(outcome) + (report.how.empty() ? "" : ", " + report.how) + exported.note;
+    dem_nerf::SolveAnswer& answer = report.figures;
+    answer.cause = job.cause;
+    answer.solver = demnerf::mechanics::solverName(job.settings.solver);
+    answer.particles = static_cast<std::uint32_t>(job.cloud.size());
+    answer.seconds = outcome.seconds;
+    answer.energy = outcome.energy;
+    answer.max_displacement = outcome.max_displacement;
     {
       std::lock_guard<std::mutex> lock(mutex_);
       stage_ = "solved";
       last_figures_ = figures;
+      answer.sequence = last_answer_.sequence + 1;
+      last_answer_ = answer;
       solve_running_ = false;
     }
     publishStatus("solved", job.cause + ": " + figures);

@@ -35,6 +35,9 @@ void DemNode::publishStatus(const std::string& stage, const std::string& message
   status.rejections = rejections_.counts();
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    status.particles = particles_ ? static_cast<std::uint32_t>(particles_->size()) : 0;
+    status.renders = static_cast<std::uint32_t>(renders_);
+    status.last_solve = last_answer_;
     status.solve.running = solve_running_;
     status.solve.time_limit = solve_time_limit_;
     if (solve_running_) {

@@ -65,13 +65,13 @@ NerfNode::NerfNode(ros::NodeHandle node, ros::NodeHandle private_node, const Ner
   }
   if (resume_from_) {
     try {
-      const std::optional<TrainingRecord> record = loadTrainingRecord(config_.model_path);
-      resumed_ = record.value_or(TrainingRecord{});
+      const std::optional<demnerf::nerf::TrainingRecord> record = demnerf::nerf::readTrainingRecord(config_.model_path);
+      resumed_ = record.value_or(demnerf::nerf::TrainingRecord{});
       resume_note_ = record ? "resumed from iteration " + std::to_string(resumed_.iteration) + " (" +
                                   std::to_string(static_cast<int>(resumed_.seconds)) + " s of training) of '" +
                                   config_.model_path + "'"
                             : "resumed the weights of '" + config_.model_path +
-                                  "' (no training record beside it: the iteration count starts at 0)";
+                                  "' (no training record in its header: the iteration count starts at 0)";
     } catch (const demnerf::core::Error& error) {
       resume_note_ = "resumed the weights of '" + config_.model_path + "'; iteration count starts at 0";
       reportError("resume", error.what());
@@ -178,6 +178,12 @@ void NerfNode::publishStatus(const ros::TimerEvent&) {
     status.header.stamp = ros::Time::now();
     status.header.frame_id = config_.world_frame;
     const FrameIntakeCounts counts = intake_.counts();
+    status.intake.received = static_cast<uint32_t>(counts.received);
+    status.intake.keyframes = static_cast<uint32_t>(counts.keyframes);
+    status.intake.not_new = static_cast<uint32_t>(counts.not_new);
+    status.intake.rejected = static_cast<uint32_t>(counts.rejected);
+    status.intake.tf_missing = static_cast<uint32_t>(counts.tf_missing);
+    status.intake.tf_too_slow = static_cast<uint32_t>(counts.tf_too_slow);
     {
       std::lock_guard<std::mutex> lock(mutex_);
       status.stage = stage_;

@@ -23,10 +23,10 @@
 
 #include "demnerf/nerf/background_trainer.hpp"
 #include "demnerf/nerf/config.hpp"
+#include "demnerf/nerf/training_record.hpp"
 #include "nodes/common/rejection_counter.hpp"
 #include "nodes/nerf/frame_intake.hpp"
 #include "nodes/nerf/nerf_node_config.hpp"
-#include "nodes/nerf/training_record.hpp"
 
 namespace dem_nerf {
 
@@ -80,7 +80,7 @@ class NerfNode {
   std::vector<demnerf::core::Frame> keyframes_;
   std::unique_ptr<demnerf::nerf::BackgroundTrainer> background_;
   std::unique_ptr<demnerf::nerf::NerfModel> resume_from_;  ///< a saved model training continues from
-  TrainingRecord resumed_;   ///< iterations and seconds behind resume_from_ (zero for a fresh model)
+  demnerf::nerf::TrainingRecord resumed_;   ///< iterations and seconds behind resume_from_ (zero for a fresh model)
   std::string resume_note_;  ///< what was resumed, for ~status
   double last_autosave_ = 0; ///< session seconds of the last autosave (training thread only)
   std::shared_ptr<const demnerf::nerf::NerfModel> trained_;

@@ -80,7 +80,13 @@ bool NerfNode::save(dem_nerf::SaveModel::Request& request, dem_nerf::SaveModel::
     const auto model = currentModel();
     if (!model) throw demnerf::core::Error("nothing to save: training has not started (waiting for keyframes)");
     const std::string path = request.path.empty() ? config_.model_path : request.path;
-    demnerf::nerf::saveModel(*model, path);
+    std::optional<demnerf::nerf::TrainingRecord> record;  // none before any training step
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (progress_.iteration > 0) record = demnerf::nerf::TrainingRecord{progress_.iteration, progress_.seconds, progress_.psnr};
+    }
+    if (record) demnerf::nerf::saveModel(*model, path, *record);
+    else demnerf::nerf::saveModel(*model, path);
     response.ok = true;
     response.message = "saved to " + path;
   } catch (const std::exception& error) {

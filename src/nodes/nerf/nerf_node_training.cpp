@@ -43,10 +43,11 @@ void NerfNode::startTraining() {
         config_.train_seconds > 0 ? std::max(config_.train_seconds - resumed_.seconds, 1.0) : 0.0;
     background.stop.iterations =
         config_.max_iterations > 0 ? std::max<std::int64_t>(config_.max_iterations - resumed_.iteration, 1) : 0;
-    // The node autosaves itself (in the progress callback) so that every model file gets a
-    // training record with exactly its iteration; the background trainer only saves at the end.
+    // The node autosaves itself (in the progress callback, the error counted under "save"); the
+    // background trainer saves at the end, its header's record continuing resumed_.
     background.autosave_seconds = 0;
     background.model_path = config_.model_path;
+    background.earlier = resumed_;
     last_autosave_ = 0;
     demnerf::nerf::Trainer* live = trainer.get();  // owned by the background trainer from here on
     demnerf::nerf::BackgroundTrainerCallbacks callbacks;
@@ -84,26 +85,20 @@ void NerfNode::onTrained(const demnerf::nerf::NerfModel& model, const demnerf::n
     progress_ = progress;
     stage_ = "trained";
   }
-  try {  // the background trainer has just written the final model file
-    saveTrainingRecord(config_.model_path, {progress.iteration, progress.seconds, progress.psnr});
-  } catch (const std::exception& error) {
-    reportError("save", error.what());
-  }
   ROS_INFO("nerf_node: trained, %lld iterations, training PSNR %.2f dB", static_cast<long long>(progress.iteration),
            progress.psnr);
   publishModel(trained, static_cast<std::uint32_t>(progress.iteration), static_cast<float>(progress.psnr));
 }
 
 void NerfNode::autosave(const demnerf::nerf::NerfModel& model, const demnerf::nerf::TrainProgress& session) {
-  TrainingRecord record;
+  demnerf::nerf::TrainingRecord record;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     const demnerf::nerf::TrainProgress progress = overAllRuns(session);
     record = {progress.iteration, progress.seconds, progress.psnr};
   }
   try {
-    demnerf::nerf::saveModel(model, config_.model_path);
-    saveTrainingRecord(config_.model_path, record);
+    demnerf::nerf::saveModel(model, config_.model_path, record);
   } catch (const std::exception& error) {
     // A full disk must not end training: report it; the previous files stay as they were.
     reportError("save", std::string("autosave failed: ") + error.what());

@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "demnerf/nerf/trainer.hpp"
+#include "demnerf/nerf/training_record.hpp"
 
 namespace demnerf::nerf {
 
@@ -15,6 +16,9 @@ struct BackgroundTrainerConfig {
   StopCriteria stop;              ///< when training ends (0 and 0: until stop())
   double autosave_seconds = 30;   ///< 0: save only at the end
   std::string model_path;         ///< where the model is saved (empty: never)
+  /// Training behind the starting weights (a resumed model's record): the saved files' records
+  /// continue from it.
+  TrainingRecord earlier;
 };
 
 struct BackgroundTrainerCallbacks {
@@ -37,7 +41,7 @@ class BackgroundTrainer {
 
  private:
   void run();
-  void save(const NerfModel& model);
+  void save(const NerfModel& model, const TrainProgress& progress);
 
   std::unique_ptr<Trainer> trainer_;
   BackgroundTrainerConfig config_;
