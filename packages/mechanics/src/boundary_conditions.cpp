@@ -88,6 +88,20 @@ Dirichlet resolveFixtures(const core::Scenario& scenario, const std::vector<Eige
   return d;
 }
 
+namespace {
+
+// A box's sides are planes that a particle's square of surface can be clipped against
+// (loaded_share.hpp). Other regions (dem_node's contact sphere, a few spacings across) load whole
+// particles: on the rostests' 99-particle bar, clipped shares on a 15 mm sphere left the DEM's
+// MLP unable to answer a turned wrench (energy above 0 J after training), cause not yet found.
+double loadShare(const core::Region& region, const core::ParticleCloud& cloud, std::size_t i) {
+  if (region.type == core::Region::Type::kBox)
+    return loadedShare(region, cloud.positions[i], cloud.normals[i], cloud.areas[i]);
+  return region.contains(cloud.positions[i]) ? 1.0 : 0.0;
+}
+
+}  // namespace
+
 std::vector<Eigen::Vector3d> particleTractions(const core::Scenario& scenario, const core::ParticleCloud& cloud) {
   std::vector<Eigen::Vector3d> traction(cloud.size(), Eigen::Vector3d::Zero());
   for (const core::Load& load : scenario.loads) {
@@ -100,7 +114,7 @@ std::vector<Eigen::Vector3d> particleTractions(const core::Scenario& scenario, c
     std::vector<double> areas, shares;
     for (std::size_t i = 0; i < cloud.size(); ++i) {
       if (!cloud.isSurface(i)) continue;
-      const double share = loadedShare(load.region, cloud.positions[i], cloud.normals[i], cloud.areas[i]);
+      const double share = loadShare(load.region, cloud, i);
       if (!(share > 0.0)) continue;
       patch.push_back(static_cast<int>(i));
       points.push_back(cloud.positions[i]);
