@@ -112,8 +112,8 @@ bool solve(double force_z, std::string* message = nullptr) {
   return ok;
 }
 
-TEST(DemNodeRender, CorruptModelsAreRefusedAndTheDeformedObjectIsRendered) {
-  ros::NodeHandle node;
+// Waits for nerf_node's trained model and particles; the model's path, empty when none came.
+std::string waitForTrainedModel(ros::NodeHandle& node) {
   std::mutex mutex;
   std::optional<dem_nerf::ModelInfo> model;
   bool particles_published = false;
@@ -126,16 +126,18 @@ TEST(DemNodeRender, CorruptModelsAreRefusedAndTheDeformedObjectIsRendered) {
         std::lock_guard<std::mutex> lock(mutex);
         particles_published = true;
       });
-  ASSERT_TRUE(spinUntil(
+  const bool ready = spinUntil(
       [&] {
         std::lock_guard<std::mutex> lock(mutex);
         return model && particles_published;
       },
-      100))
-      << "nerf_node published no trained model and particles";
-  const std::string model_path = model->model_path;
+      100);
+  std::lock_guard<std::mutex> lock(mutex);
+  return ready ? model->model_path : std::string();
+}
 
-  // --- nerf_node ~load: garbage, then a truncated copy of the real file, then the real file.
+// nerf_node ~load: garbage, then a truncated copy of the real file, both refused by name.
+void expectCorruptModelsRefused(ros::NodeHandle& node, const std::string& model_path) {
   StatusRecorder nerf_status(node, "/nerf_node/status");
   const std::string garbage = "/tmp/dem_node_render_garbage.nerf", truncated = "/tmp/dem_node_render_truncated.nerf";
   {
@@ -161,6 +163,60 @@ TEST(DemNodeRender, CorruptModelsAreRefusedAndTheDeformedObjectIsRendered) {
   }
   std::remove(garbage.c_str());
   std::remove(truncated.c_str());
+}
+
+// The tf from world to the render camera, at renderPose().
+void broadcastRenderCamera(tf2_ros::StaticTransformBroadcaster& broadcaster) {
+  geometry_msgs::TransformStamped transform;
+  transform.header.stamp = ros::Time::now();
+  transform.header.frame_id = "world";
+  transform.child_frame_id = "render_camera";
+  const geometry_msgs::Pose pose = toPose(renderPose());
+  transform.transform.translation.x = pose.position.x;
+  transform.transform.translation.y = pose.position.y;
+  transform.transform.translation.z = pose.position.z;
+  transform.transform.rotation = pose.orientation;
+  broadcaster.sendTransform(transform);
+}
+
+// The deformed renders under a small and a large downward load on the free end: the same object
+// as nerf_node's render at rest (`rest_pixels` opaque), its free end lower, its clamped end not.
+void expectTheFreeEndMovesDown(const sensor_msgs::Image& small, const sensor_msgs::Image& large, std::size_t rest_pixels) {
+  EXPECT_EQ(small.encoding, "rgba8");
+  EXPECT_EQ(small.width, static_cast<unsigned>(kWidth));
+  EXPECT_EQ(small.height, static_cast<unsigned>(kHeight));
+  EXPECT_EQ(small.header.frame_id, "render_camera");
+  const std::size_t small_pixels = opaquePixels(small);
+  EXPECT_GT(small_pixels, 0.7 * rest_pixels);
+  EXPECT_LT(small_pixels, 1.3 * rest_pixels);
+  // Columns of the object; its free end (right) must move down, its clamped end (left) not.
+  int c0 = kWidth, c1 = -1;
+  for (int v = 0; v < kHeight; ++v) {
+    for (int c = 0; c < kWidth; ++c) {
+      if (small.data[v * small.step + 4 * c + 3] > 128) {
+        c0 = std::min(c0, c);
+        c1 = std::max(c1, c);
+      }
+    }
+  }
+  ASSERT_LT(c0, c1);
+  const int span = c1 - c0 + 1;
+  const double tip_small = meanRow(small, c0 + 3 * span / 4, c1 + 1), tip_large = meanRow(large, c0 + 3 * span / 4, c1 + 1);
+  const double root_small = meanRow(small, c0, c0 + span / 8), root_large = meanRow(large, c0, c0 + span / 8);
+  std::printf("object columns %d..%d; free end mean row %.2f -> %.2f px, clamped end %.2f -> %.2f px\n", c0, c1,
+              tip_small, tip_large, root_small, root_large);
+  EXPECT_GT(tip_large - tip_small, 1.5) << "the loaded end should move down in the image";
+  // The clamp holds x <= 0.015 m, but how far the columns next to it move with the bent beam
+  // depends on the NeRF's extracted body (measured 0.2-3.9 px for free-end moves of 3.7-11.7 px).
+  EXPECT_LT(std::abs(root_large - root_small), 0.5 * (tip_large - tip_small))
+      << "the clamped end should move much less than the loaded one";
+}
+
+TEST(DemNodeRender, CorruptModelsAreRefusedAndTheDeformedObjectIsRendered) {
+  ros::NodeHandle node;
+  const std::string model_path = waitForTrainedModel(node);
+  ASSERT_FALSE(model_path.empty()) << "nerf_node published no trained model and particles";
+  expectCorruptModelsRefused(node, model_path);
   // The good file loads (training may still be winding down for a moment), and renders.
   dem_nerf::LoadModel good;
   good.request.path = model_path;
@@ -193,6 +249,7 @@ TEST(DemNodeRender, CorruptModelsAreRefusedAndTheDeformedObjectIsRendered) {
   EXPECT_FALSE(dem_status.sawError("~rendered"));
 
   // A subscriber arrives: the latest result is rendered at once, and the missing tf is reported.
+  std::mutex mutex;
   std::vector<sensor_msgs::Image> images;
   auto rendered = node.subscribe<sensor_msgs::Image>("/dem_node/rendered", 5, [&](const sensor_msgs::ImageConstPtr& m) {
     std::lock_guard<std::mutex> lock(mutex);
@@ -202,65 +259,25 @@ TEST(DemNodeRender, CorruptModelsAreRefusedAndTheDeformedObjectIsRendered) {
 
   // With the tf: a small load, then a large downward one on the free end.
   tf2_ros::StaticTransformBroadcaster broadcaster;
-  geometry_msgs::TransformStamped transform;
-  transform.header.stamp = ros::Time::now();
-  transform.header.frame_id = "world";
-  transform.child_frame_id = "render_camera";
-  const geometry_msgs::Pose pose = toPose(renderPose());
-  transform.transform.translation.x = pose.position.x;
-  transform.transform.translation.y = pose.position.y;
-  transform.transform.translation.z = pose.position.z;
-  transform.transform.rotation = pose.orientation;
-  broadcaster.sendTransform(transform);
+  broadcastRenderCamera(broadcaster);
   ros::WallDuration(0.5).sleep();
   auto imageCount = [&] {
     std::lock_guard<std::mutex> lock(mutex);
     return images.size();
   };
+  auto latestImage = [&] {
+    std::lock_guard<std::mutex> lock(mutex);
+    return images.back();
+  };
   const std::size_t before = imageCount();
   ASSERT_TRUE(solve(-0.01, &message)) << message;
   ASSERT_TRUE(spinUntil([&] { return imageCount() > before; }, 30)) << "no image on /dem_node/rendered";
-  const sensor_msgs::Image small = [&] {
-    std::lock_guard<std::mutex> lock(mutex);
-    return images.back();
-  }();
+  const sensor_msgs::Image small = latestImage();
   ASSERT_TRUE(solve(-20.0, &message)) << message;
   std::printf("large load: %s\n", message.c_str());
   ASSERT_TRUE(spinUntil([&] { return imageCount() > before + 1; }, 30)) << "no second image";
-  const sensor_msgs::Image large = [&] {
-    std::lock_guard<std::mutex> lock(mutex);
-    return images.back();
-  }();
-
-  EXPECT_EQ(small.encoding, "rgba8");
-  EXPECT_EQ(small.width, static_cast<unsigned>(kWidth));
-  EXPECT_EQ(small.height, static_cast<unsigned>(kHeight));
-  EXPECT_EQ(small.header.frame_id, "render_camera");
-  // The deformed renders show the same object as nerf_node's own render at rest.
-  const std::size_t small_pixels = opaquePixels(small);
-  EXPECT_GT(small_pixels, 0.7 * rest_pixels);
-  EXPECT_LT(small_pixels, 1.3 * rest_pixels);
-  // Columns of the object; its free end (right) must move down, its clamped end (left) not.
-  int c0 = kWidth, c1 = -1;
-  for (int v = 0; v < kHeight; ++v) {
-    for (int c = 0; c < kWidth; ++c) {
-      if (small.data[v * small.step + 4 * c + 3] > 128) {
-        c0 = std::min(c0, c);
-        c1 = std::max(c1, c);
-      }
-    }
-  }
-  ASSERT_LT(c0, c1);
-  const int span = c1 - c0 + 1;
-  const double tip_small = meanRow(small, c0 + 3 * span / 4, c1 + 1), tip_large = meanRow(large, c0 + 3 * span / 4, c1 + 1);
-  const double root_small = meanRow(small, c0, c0 + span / 8), root_large = meanRow(large, c0, c0 + span / 8);
-  std::printf("object columns %d..%d; free end mean row %.2f -> %.2f px, clamped end %.2f -> %.2f px\n", c0, c1,
-              tip_small, tip_large, root_small, root_large);
-  EXPECT_GT(tip_large - tip_small, 1.5) << "the loaded end should move down in the image";
-  // The clamp holds x <= 0.015 m, but how far the columns next to it move with the bent beam
-  // depends on the NeRF's extracted body (measured 0.2-3.9 px for free-end moves of 3.7-11.7 px).
-  EXPECT_LT(std::abs(root_large - root_small), 0.5 * (tip_large - tip_small))
-      << "the clamped end should move much less than the loaded one";
+  const sensor_msgs::Image large = latestImage();
+  expectTheFreeEndMovesDown(small, large, rest_pixels);
   // ~status counts the renders it published (each one an image here).
   const std::size_t received = imageCount();
   EXPECT_TRUE(dem_status.waitUntil([&](const dem_nerf::TrainingStatus& s) { return s.renders >= received; }, 5));
