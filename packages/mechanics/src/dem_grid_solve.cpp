@@ -23,14 +23,15 @@ using torch_support::toTensor;
 // between a region and the first particle layer).
 void DemSolver::Impl::buildGridQuadrature() {
   if (config.grid.quadrature == DemConfig::GridQuadrature::kCells) {
-    if (!gq_from_cells) {
+    // The cell quadrature depends on the cloud and the grid only, both fixed for the solver's
+    // life: built once, not per scenario (a patch basis runs up to 27 scenarios on one solver).
+    if (gq_points.empty()) {
       CellQuadratureConfig cq;
       cq.points_per_axis = config.grid.gauss_points;
       cq.boundary_levels = config.grid.boundary_levels;
       CellQuadrature q = cellQuadrature(cloud, *grid, cq);
       gq_points = std::move(q.points);
       gq_volume = std::move(q.weights);
-      gq_from_cells = true;
     }
   } else {
     buildParticleGridQuadrature();

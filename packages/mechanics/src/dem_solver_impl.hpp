@@ -70,9 +70,6 @@ struct DemSolver::Impl {
   // The grid Newton's fixed quadrature (particles near fixtures split, DemConfig::grid.refine_band).
   std::vector<Eigen::Vector3d> gq_points;
   std::vector<double> gq_volume;
-  // The cell quadrature depends on the cloud and the grid only, both fixed for the solver's life:
-  // built once, not per scenario (a patch basis runs 27 scenarios on one solver).
-  bool gq_from_cells = false;
   DirichletLift gq_lift;
   GridNewtonCache grid_newton_cache;  // the last factorisation, across load steps and scenarios
   Tensor gq_x, gq_lift_t[4];

@@ -66,7 +66,6 @@ GridNewtonCache::GridNewtonCache() = default;
 GridNewtonCache::~GridNewtonCache() = default;
 GridNewtonCache::GridNewtonCache(GridNewtonCache&&) noexcept = default;
 GridNewtonCache& GridNewtonCache::operator=(GridNewtonCache&&) noexcept = default;
-void GridNewtonCache::clear() { state.reset(); }
 
 namespace {
 

@@ -44,7 +44,6 @@ class GridNewtonCache {
   ~GridNewtonCache();
   GridNewtonCache(GridNewtonCache&&) noexcept;
   GridNewtonCache& operator=(GridNewtonCache&&) noexcept;
-  void clear();
 
   struct State;  // grid_field_newton.cpp
   std::unique_ptr<State> state;
