@@ -19,6 +19,7 @@
 
 #include "demnerf/core/ply.hpp"
 #include "demnerf/core/scenario.hpp"
+#include "demnerf/mechanics/allocator.hpp"
 #include "demnerf/mechanics/box_particles.hpp"
 #include "demnerf/mechanics/dem_solver.hpp"
 #include "demnerf/mechanics/material.hpp"
@@ -188,6 +189,7 @@ void runVariant(const Problem& p, const std::string& which, int every, Variant& 
 }  // namespace
 
 int main(int argc, char** argv) {
+  demnerf::mechanics::keepLargeAllocationsInHeap();  // as the product's entry points do (tune_allocator)
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   const Arguments a = demnerf::bench::keyValueArguments(argc, argv);
   const std::string which = a.count("case") ? a.at("case") : "uniaxial";

@@ -23,6 +23,7 @@
 #include "demnerf/core/ply.hpp"
 #include "demnerf/core/scenario.hpp"
 #include "mechanics_bench_common.hpp"
+#include "demnerf/mechanics/allocator.hpp"
 #include "demnerf/mechanics/box_particles.hpp"
 #include "demnerf/mechanics/dem_solver.hpp"
 #include "demnerf/mechanics/fem_solver.hpp"
@@ -190,6 +191,7 @@ double predictMilliseconds(const dm::DemSolver& dem, const std::vector<Vector3d>
 }  // namespace
 
 int main(int argc, char** argv) {
+  demnerf::mechanics::keepLargeAllocationsInHeap();  // as the product's entry points do (tune_allocator)
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   const Arguments a = demnerf::bench::keyValueArguments(argc, argv);
   const std::string which = text(a, "case", "tbar");

@@ -41,6 +41,7 @@
 #include "demnerf/core/ply.hpp"
 #include "demnerf/core/scenario.hpp"
 #include "demnerf/geometry/particle_sampler.hpp"
+#include "demnerf/mechanics/allocator.hpp"
 #include "demnerf/mechanics/compare_results.hpp"
 #include "demnerf/mechanics/simulate.hpp"
 #include "demnerf/mechanics/solve_control.hpp"
@@ -346,6 +347,7 @@ void runSource(const bench::MatrixCase& mc, const core::Scenario& scenario, cons
 }  // namespace
 
 int main(int argc, char** argv) {
+  demnerf::mechanics::keepLargeAllocationsInHeap();  // as the product's entry points do (tune_allocator)
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   const Settings s = parseSettings(argc, argv);
   bench::MatrixReport report;

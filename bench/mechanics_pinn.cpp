@@ -22,6 +22,7 @@
 #include "demnerf/core/error.hpp"
 #include "demnerf/core/ply.hpp"
 #include "demnerf/core/scenario.hpp"
+#include "demnerf/mechanics/allocator.hpp"
 #include "demnerf/mechanics/box_particles.hpp"
 #include "demnerf/mechanics/material.hpp"
 #include "demnerf/mechanics/pinn_solver.hpp"
@@ -87,6 +88,7 @@ Case tbarCase(double h, const std::string& scenario, const std::string& ref) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  demnerf::mechanics::keepLargeAllocationsInHeap();  // as the product's entry points do (tune_allocator)
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   std::map<std::string, std::string> a = demnerf::bench::keyValueArguments(argc, argv);
   auto num = [&](const char* k, double d) { return a.count(k) ? std::atof(a[k].c_str()) : d; };

@@ -13,6 +13,7 @@
 
 #include "demnerf/core/scenario.hpp"
 #include "mechanics_bench_common.hpp"
+#include "demnerf/mechanics/allocator.hpp"
 #include "demnerf/mechanics/box_particles.hpp"
 #include "demnerf/mechanics/dem_solver.hpp"
 #include "demnerf/mechanics/fem_solver.hpp"
@@ -93,6 +94,7 @@ DemRuns demRuns(const core::Scenario& scenario, const core::ParticleCloud& cloud
 }  // namespace
 
 int main(int argc, char** argv) {
+  demnerf::mechanics::keepLargeAllocationsInHeap();  // as the product's entry points do (tune_allocator)
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // keep the table when a later stage aborts
   const std::string scenario_path = argc > 1 ? argv[1] : std::string(DEMNERF_ROOT) + "/config/scenarios/tbar_twist.yaml";
   const double h = argc > 2 ? std::atof(argv[2]) : 0.0075;

@@ -9,6 +9,8 @@
 //                                  C = 2 x seconds on an idle 2-core machine)
 // The CSV has wall and CPU seconds and the held-out renders' samples per pixel per row.
 
+#include <ATen/Parallel.h>
+
 #include <chrono>
 #include <cmath>
 #include <ctime>
@@ -176,6 +178,7 @@ int main(int argc, char** argv) {
     options.downscale = std::stod(get("downscale", "1"));
     const core::Dataset dataset = core::loadDataset(args["data"], options);
     nerf::NerfConfig config = args.count("config") ? nerf::loadNerfConfig(args["config"]) : nerf::NerfConfig{};
+    if (config.train.threads > 0) at::set_num_threads(config.train.threads);  // the entry point's job, not the Trainer's
     nerf::Trainer trainer(config, nerf::datasetBox(dataset), dataset.aabb_scale);
     trainer.addFrames(dataset.train);
     std::fprintf(stderr, "nerf_train: %zu train / %zu test views, %dx%d, box %.3g x %.3g x %.3g, aabb_scale %.3g\n",

@@ -6,6 +6,7 @@
 
 #include "commands.hpp"
 #include "demnerf/core/error.hpp"
+#include "runtime/configure_runtime.hpp"
 
 namespace {
 
@@ -58,6 +59,8 @@ int main(int argc, char** argv) {
       std::cout << "usage: demnerf " << command->name << " " << command->usage << "\n";
       return 0;
     }
+    // --threads where a command takes it (0: all cores); simulate and train refine it from their configs.
+    dem_nerf::configureRuntime({arguments.has("threads") ? arguments.integer("threads", 0) : 0, false});
     const Figures figures = command->run(arguments);
     printFigures(figures, arguments.flag("json"));
     return 0;

@@ -3,8 +3,8 @@
 
 #include <algorithm>
 #include <chrono>
-#include <sstream>
 #include <string>
+#include <set>
 
 #include "command.hpp"
 #include "commands.hpp"
@@ -14,13 +14,15 @@
 
 #include "demnerf/nerf/model_io.hpp"
 #include "pipeline/model_geometry.hpp"
+#include "surface_flags.hpp"
 
 namespace demnerf::cli {
 namespace {
 
 Figures runSample(const Arguments& arguments) {
-  arguments.rejectUnknown({"mesh", "model", "resolution", "surface", "opacity", "threshold", "method", "spacing", "out", "seed", "weights",
-                           "surface-volumes", "json", "quiet"});
+  std::set<std::string> known = surfaceFlagNames();  // with --model
+  known.insert({"mesh", "model", "method", "spacing", "out", "seed", "weights", "surface-volumes", "json", "quiet"});
+  arguments.rejectUnknown(known);
   if (arguments.has("mesh") == arguments.has("model")) throw UsageError("give either --mesh or --model");
   const std::string out_path = arguments.text("out");
   geometry::SamplerConfig config;  // its method and seed are the defaults, as nerf_node's
@@ -47,18 +49,9 @@ Figures runSample(const Arguments& arguments) {
     cloud = geometry::sampleParticles(mesh, config, &report);
   } else {
     const nerf::NerfModel model = nerf::loadModel(arguments.text("model"));
-    geometry::MeshExtractionConfig extraction;
     // As `demnerf extract` and nerf_node: the surface as rendered unless --threshold asks for a
-    // density iso-surface.
-    const dem_nerf::SurfaceDefaults defaults;
-    const std::string surface = arguments.text("surface", arguments.has("threshold") ? "density" : "opacity");
-    if (surface != "density" && surface != "opacity") {
-      throw UsageError("option --surface expects density or opacity, got '" + surface + "'");
-    }
-    extraction.surface = geometry::parseSurfaceDefinition(surface);
-    extraction.opacity = arguments.number("opacity", defaults.opacity);
-    extraction.threshold = arguments.number("threshold", extraction.threshold);
-    mesh = dem_nerf::extractSurface(model, arguments.integer("resolution", defaults.resolution), extraction).mesh;
+    // density iso-surface; with --box only the object inside it.
+    mesh = dem_nerf::extractSurface(model, surfaceFlags(arguments)).mesh;
     cloud = geometry::sampleParticles(mesh, config, &report);
     dem_nerf::colourFromModel(model, &cloud);
   }
@@ -77,14 +70,9 @@ Figures runSample(const Arguments& arguments) {
 const Command kSampleCommand = {
     "sample", "particles inside a closed mesh",
     [] {
-      // The extraction defaults printed are the ones that run (dem_nerf::SurfaceDefaults).
-      std::ostringstream opacity;
-      opacity << dem_nerf::SurfaceDefaults{}.opacity;
-      static const std::string text =
-          "(--mesh M.ply|M.obj | --model MODEL [--resolution " + std::to_string(dem_nerf::SurfaceDefaults{}.resolution) +
-          "] [--surface opacity|density] [--opacity " + opacity.str() +
-          "] [--threshold 2.5]) --method random|poisson|grid --spacing H --out P.ply [--seed 1] "
-          "[--weights voronoi|uniform] [--surface-volumes false] [--json]";
+      static const std::string text = "(--mesh M.ply|M.obj | --model MODEL " + surfaceFlagsUsage() +
+                                      ") --method random|poisson|grid --spacing H --out P.ply [--seed 1] "
+                                      "[--weights voronoi|uniform] [--surface-volumes false] [--json]";
       return text.c_str();
     }(),
     runSample};

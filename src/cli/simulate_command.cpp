@@ -15,6 +15,7 @@
 #include "demnerf/core/ply.hpp"
 #include "demnerf/core/scenario.hpp"
 #include "demnerf/mechanics/simulate.hpp"
+#include "demnerf/mechanics/allocator.hpp"
 #include "demnerf/mechanics/solver_config_yaml.hpp"
 #include "demnerf/vtk_export/vtu_writer.hpp"
 
@@ -54,6 +55,7 @@ Figures runSimulate(const Arguments& arguments) {
   const std::string out_path = arguments.text("out");
   const core::ParticleCloud cloud = core::readParticles(arguments.text("particles"));
   const core::Scenario scenario = core::loadScenario(arguments.text("scenario"));
+  if (options.dem.tune_allocator) mechanics::keepLargeAllocationsInHeap();  // DemConfig::tune_allocator, process-wide
   if (arguments.has("mesh")) options.surface = core::readMesh(arguments.text("mesh"));
   if (arguments.has("save-model")) {
     if (solver != mechanics::SolverChoice::kDem) throw UsageError("option --save-model needs --solver dem");

@@ -6,6 +6,7 @@
 #include "demnerf/core/dataset.hpp"
 #include "demnerf/nerf/model_io.hpp"
 #include "demnerf/nerf/trainer.hpp"
+#include "runtime/configure_runtime.hpp"
 
 namespace demnerf::cli {
 namespace {
@@ -19,6 +20,7 @@ Figures runTrain(const Arguments& arguments) {
   if (arguments.has("threads")) config.train.threads = arguments.integer("threads", 0);
   if (arguments.has("seed")) config.train.seed = static_cast<std::uint64_t>(arguments.integer("seed", 1));
   config.validate();
+  if (config.train.threads > 0) dem_nerf::configureRuntime({config.train.threads, false});  // a config file's count
   nerf::StopCriteria stop;
   stop.seconds = arguments.number("seconds", 0.0);
   stop.iterations = arguments.integer("iterations", 0);

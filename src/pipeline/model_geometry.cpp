@@ -22,9 +22,12 @@ demnerf::geometry::DensityGrid densityGridInBox(const demnerf::nerf::NerfModel& 
       resolution);
 }
 
-demnerf::geometry::MeshExtractionResult extractSurface(const demnerf::nerf::NerfModel& model, int resolution,
-                                                       const demnerf::geometry::MeshExtractionConfig& config) {
-  return demnerf::geometry::extractMesh(densityGridOf(model, resolution), config);
+demnerf::geometry::MeshExtractionResult extractSurface(const demnerf::nerf::NerfModel& model,
+                                                       const SurfaceConfig& config,
+                                                       demnerf::geometry::IsolationReport* pieces) {
+  if (!config.box) return demnerf::geometry::extractMesh(densityGridOf(model, config.resolution), config.mesh);
+  return demnerf::geometry::isolateObject(densityGridInBox(model, *config.box, config.resolution), config.mesh,
+                                          config.isolation, pieces);
 }
 
 void colourFromModel(const demnerf::nerf::NerfModel& model, demnerf::core::ParticleCloud* cloud) {
@@ -46,11 +49,10 @@ void colourFromModel(const demnerf::nerf::NerfModel& model, demnerf::core::Parti
   }
 }
 
-demnerf::core::ParticleCloud particlesFromModel(const demnerf::nerf::NerfModel& model, int resolution,
-                                                const demnerf::geometry::MeshExtractionConfig& extraction,
+demnerf::core::ParticleCloud particlesFromModel(const demnerf::nerf::NerfModel& model, const SurfaceConfig& surface,
                                                 demnerf::geometry::SamplerConfig sampling,
                                                 demnerf::core::TriangleMesh* mesh_out) {
-  const demnerf::core::TriangleMesh mesh = extractSurface(model, resolution, extraction).mesh;
+  const demnerf::core::TriangleMesh mesh = extractSurface(model, surface).mesh;
   if (sampling.spacing <= 0.0) {
     Eigen::AlignedBox3d box;
     for (const auto& v : mesh.vertices) box.extend(v);

@@ -7,7 +7,7 @@
 #include "demnerf/geometry/object_isolation.hpp"
 #include "demnerf/geometry/particle_sampler.hpp"
 #include "demnerf/nerf/model.hpp"
-#include "pipeline/surface_defaults.hpp"
+#include "pipeline/surface_config.hpp"
 
 namespace dem_nerf {
 
@@ -19,9 +19,12 @@ demnerf::geometry::DensityGrid densityGridOf(const demnerf::nerf::NerfModel& mod
 demnerf::geometry::DensityGrid densityGridInBox(const demnerf::nerf::NerfModel& model, const Eigen::AlignedBox3d& box,
                                                 int resolution);
 
-/// The closed surface of the model (config says which: density level or opacity from outside).
-demnerf::geometry::MeshExtractionResult extractSurface(const demnerf::nerf::NerfModel& model, int resolution,
-                                                       const demnerf::geometry::MeshExtractionConfig& config);
+/// The closed surface of the model (config says which: density level or opacity from outside),
+/// over the model's box, or of the largest piece inside config.box (geometry::isolateObject's
+/// refusals: box empty, several comparable pieces, surface open). `pieces` gets the box's pieces.
+demnerf::geometry::MeshExtractionResult extractSurface(const demnerf::nerf::NerfModel& model,
+                                                       const SurfaceConfig& config,
+                                                       demnerf::geometry::IsolationReport* pieces = nullptr);
 
 /// Colours each particle with the NeRF's radiance, seen from outside along its normal
 /// (interior particles: from above).
@@ -30,8 +33,7 @@ void colourFromModel(const demnerf::nerf::NerfModel& model, demnerf::core::Parti
 /// The model's surface (extractSurface) filled with coloured particles. A sampling spacing <= 0
 /// means 1/40 of the mesh's bounding-box diagonal (a few thousand particles for any body size).
 /// The mesh is handed back through mesh_out when given (nerf_node draws it).
-demnerf::core::ParticleCloud particlesFromModel(const demnerf::nerf::NerfModel& model, int resolution,
-                                                const demnerf::geometry::MeshExtractionConfig& extraction,
+demnerf::core::ParticleCloud particlesFromModel(const demnerf::nerf::NerfModel& model, const SurfaceConfig& surface,
                                                 demnerf::geometry::SamplerConfig sampling,
                                                 demnerf::core::TriangleMesh* mesh_out = nullptr);
 

@@ -55,6 +55,26 @@ class ParameterMap {
     });
   }
 
+  bool getParam(const std::string& name, std::vector<std::string>& value) const {
+    return get(name, [&](XmlRpc::XmlRpcValue& v) {
+      if (v.getType() != XmlRpc::XmlRpcValue::TypeArray) return false;
+      std::vector<std::string> out;
+      for (int i = 0; i < v.size(); ++i) {
+        if (v[i].getType() != XmlRpc::XmlRpcValue::TypeString) return false;
+        out.push_back(static_cast<std::string>(v[i]));
+      }
+      value = std::move(out);
+      return true;
+    });
+  }
+  /// The value as stored (a namespace is a struct value here, as the parameter server gives it).
+  bool getParam(const std::string& name, XmlRpc::XmlRpcValue& value) const {
+    const auto it = values_.find(name);
+    if (it == values_.end()) return false;
+    value = it->second;
+    return true;
+  }
+
   /// As ros::NodeHandle::param: the parameter when set (and of a fitting type), else `fallback`.
   template <class T>
   bool param(const std::string& name, T& value, const T& fallback) const {

@@ -49,7 +49,7 @@ DemConfig normalised(DemConfig config, const DemChoice& choice) {
     if (grid_given)
       throw core::Error("a parametric load range trains the MLP alone (the feature grid does not take the load as an "
                         "input): drop the grid setting (--grid-cell / --grid-spacings / --grid-body-cells, "
-                        "~dem_grid_*) or the load range");
+                        "~dem/grid/*) or the load range");
     const auto [lo, hi] = *choice.load_range;
     if (!(lo < hi) || lo > 1.0 || hi < 1.0)
       throw core::Error("the parametric load range must be MIN,MAX with MIN < MAX and MIN <= 1 <= MAX (scales of the "

@@ -28,8 +28,6 @@ DemSolver::DemSolver(core::ParticleCloud cloud, const core::Scenario& scenario, 
   const double spacing = resolved.spacing;
   m.config = config;
   m.dtype = config.network.double_precision ? torch::kFloat64 : torch::kFloat32;
-  torch_support::setSolverThreads(config.threads, cloud.size());
-  if (config.tune_allocator) torch_support::keepLargeAllocationsInHeap();
   m.cloud = std::move(cloud);
   torch::manual_seed(config.network.seed);
   const torch_support::BodyBox box = torch_support::bodyBox(m.cloud);
@@ -170,6 +168,7 @@ void DemSolver::setScenario(const core::Scenario& scenario) {
 
 DemReport DemSolver::solve() {
   Impl& m = *impl_;
+  torch_support::setSolverThreads(m.config.threads, m.cloud.size());
   const auto start = std::chrono::steady_clock::now();
   DemReport report;
   m.clock = std::make_unique<SolveClock>(m.control, "dem");

@@ -28,7 +28,6 @@ namespace demnerf::mechanics {
 namespace {
 
 using torch::Tensor;
-using torch_support::keepLargeAllocationsInHeap;
 using torch_support::toTensor;
 using torch_support::toVectors;
 
@@ -240,8 +239,6 @@ PinnSolver::PinnSolver(core::ParticleCloud cloud, const core::Scenario& scenario
   m.material = makeMaterial(scenario.material);
   m.dtype = config.double_precision ? torch::kFloat64 : torch::kFloat32;
   m.cloud = std::move(cloud);
-  torch_support::setSolverThreads(config.threads, m.cloud.size());
-  keepLargeAllocationsInHeap();
   torch::manual_seed(config.seed);
 
   const torch_support::BodyBox box = torch_support::bodyBox(m.cloud);
@@ -293,6 +290,7 @@ PinnReport PinnSolver::solve(SolveClock& clock) {
 
 PinnReport PinnSolver::Impl::solveAll() {
   Impl& m = *this;
+  torch_support::setSolverThreads(m.config.threads, m.cloud.size());
   const auto start = std::chrono::steady_clock::now();
   PinnReport report;
   std::vector<Tensor> saved;

@@ -7,7 +7,6 @@
 #include <torch/torch.h>
 
 #include <dlfcn.h>
-#include <malloc.h>
 
 #include <Eigen/Core>
 #include <algorithm>
@@ -116,27 +115,16 @@ inline void setBlasThreads(int threads) {
   if (auto f = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) f(threads);
 }
 
-/// Torch and BLAS threads for a solve: `threads` when > 0, else one thread below 50k particles
-/// (fastest for product-size clouds on shared 2-core machines) and every core
-/// above, where the threads' synchronisation pays off.
+/// Torch and BLAS threads for a solve, set on the solving thread when it starts (not in a
+/// constructor): `threads` when > 0, else one thread below 50k particles (fastest for
+/// product-size clouds on shared 2-core machines) and every core above, where the threads'
+/// synchronisation pays off. The process's own count is dem_nerf::configureRuntime's.
 inline void setSolverThreads(int threads, std::size_t particles) {
   const int n = threads > 0 ? threads
                 : particles < 50000 ? 1
                                     : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   at::set_num_threads(n);
   setBlasThreads(n);
-}
-
-/// Every Adam step allocates and frees the same few-MB tensors; glibc serves blocks above its
-/// mmap threshold with fresh zeroed pages each time (page faults were ~15 % of a step). Keeping
-/// them in the heap halves the step time at T-bar sizes. Process-wide, set once.
-inline void keepLargeAllocationsInHeap() {
-  static const bool done = [] {
-    mallopt(M_MMAP_THRESHOLD, 512 * 1024 * 1024);
-    mallopt(M_TRIM_THRESHOLD, 1024 * 1024 * 1024);
-    return true;
-  }();
-  (void)done;
 }
 
 }  // namespace demnerf::mechanics::torch_support

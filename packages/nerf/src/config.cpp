@@ -7,6 +7,7 @@
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <utility>
 #include <variant>
 #include <vector>
 
@@ -121,8 +122,8 @@ void NerfConfig::validate() const {
   for (double b : background) check(b >= 0 && b <= 1, "background components must be in [0, 1]");
 }
 
-NerfConfig parseNerfConfig(const std::string& yaml_text, const std::string& source) {
-  NerfConfig config;
+NerfConfig parseNerfConfig(const std::string& yaml_text, const std::string& source, NerfConfig base) {
+  NerfConfig config = std::move(base);
   YAML::Node root;
   try {
     root = YAML::Load(yaml_text);

@@ -49,19 +49,13 @@ Trainer::Trainer(const NerfConfig& config, const Box& bounds, double aabb_scale)
     : config_(config),
       model_(std::make_unique<NerfModel>(config, bounds, aabb_scale)),
       engine_(std::make_unique<TrainEngine>(*model_)),
-      rng_(config.train.seed) {
-  if (config.train.threads > 0) at::set_num_threads(config.train.threads);
-  else at::set_num_threads(static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
-}
+      rng_(config.train.seed) {}
 
 Trainer::Trainer(NerfModel model)
     : config_(model.config()),
       model_(std::make_unique<NerfModel>(std::move(model))),
       engine_(std::make_unique<TrainEngine>(*model_)),
-      rng_(config_.train.seed) {
-  if (config_.train.threads > 0) at::set_num_threads(config_.train.threads);
-  else at::set_num_threads(static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
-}
+      rng_(config_.train.seed) {}
 
 Trainer::~Trainer() = default;
 

@@ -22,13 +22,10 @@ struct DemNodeConfig {
   int render_height = 120;         ///<   CameraInfo arrives on ~render_camera_info
   double render_fov = 60.0;        ///< degrees
   double tf_timeout = 0.2;         ///< s to wait for the wrench frame
-  std::string dem_method = "grid";  ///< grid (the feature-grid DEM) | mlp (the paper's MLP DEM)
-  /// Solver settings YAML (config/solvers.yaml lists every key; empty: the defaults), read over
-  /// the DEM method's preset; the parameters below override it.
-  std::string solver_config;
-  /// Everything the solvers take: the method's preset, ~solver_config, then ~dem_iterations,
-  /// ~dem_grid_cell, ~dem_grid_spacings, ~threads, ~fem_order, ~parametric, ~load_range and
-  /// ~solve_time_limit when set. The defaults are the library's, as `demnerf simulate`'s.
+  /// Everything the solvers take (ros_params/solver_parameters.hpp), as `demnerf simulate` reads
+  /// it: the preset of ~dem_method (grid | mlp), the file ~solver_config, the namespaces ~dem,
+  /// ~fem, ~pinn, ~voxel, ~control (the sections of config/solvers.yaml), ~threads, and the live
+  /// settings' startup values ~dem_grid_spacings, ~fem_order, ~solve_time_limit.
   demnerf::mechanics::SimulateOptions solver_options;
   /// Hz: solves start at most this often (0: no limit). Wrenches arriving in between coalesce,
   /// so a 100 Hz stream of fast solves cannot take a core from the NeRF training beside it.
@@ -44,7 +41,7 @@ struct DemNodeConfig {
   std::string export_dir;
 
   /// The solver options these parameters imply (solver_options).
-  demnerf::mechanics::SimulateOptions simulateOptions() const;
+  demnerf::mechanics::SimulateOptions simulateOptions() const { return solver_options; }
 
   /// Throws demnerf::core::Error naming the first bad parameter.
   static DemNodeConfig fromParameters(const ros::NodeHandle& private_node);

@@ -1,13 +1,17 @@
 #include <ros/ros.h>
 
 #include "nodes/dem/dem_node.hpp"
+#include "runtime/configure_runtime.hpp"
 
 int main(int argc, char** argv) {
   ros::init(argc, argv, "dem_node");
   ros::NodeHandle node;
   ros::NodeHandle private_node("~");
   try {
-    dem_nerf::DemNode dem_node(node, private_node, dem_nerf::DemNodeConfig::fromParameters(private_node));
+    const dem_nerf::DemNodeConfig config = dem_nerf::DemNodeConfig::fromParameters(private_node);
+    const demnerf::mechanics::DemConfig& dem = config.solver_options.dem;
+    dem_nerf::configureRuntime({dem.threads, dem.tune_allocator});
+    dem_nerf::DemNode dem_node(node, private_node, config);
     ros::AsyncSpinner spinner(2);
     spinner.start();
     ros::waitForShutdown();

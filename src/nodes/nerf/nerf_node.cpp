@@ -26,7 +26,7 @@ std::string describe(const FrameIntakeCounts& counts) {
 
 NerfNode::NerfNode(ros::NodeHandle node, ros::NodeHandle private_node, const NerfNodeConfig& config)
     : config_(config),
-      nerf_config_(config.nerf()),
+      nerf_config_(config.nerf),
       tf_listener_(tf_buffer_),
       intake_(config.intake(), tf_buffer_),
       transport_(node) {

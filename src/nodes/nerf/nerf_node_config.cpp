@@ -2,11 +2,14 @@
 
 #include <cstdlib>
 
+#include "ros_params/nerf_parameters.hpp"
 #include "ros_params/parameters.hpp"
 
 namespace dem_nerf {
+namespace {
 
-NerfNodeConfig NerfNodeConfig::fromParameters(const ros::NodeHandle& node) {
+template <class Node>
+NerfNodeConfig read(const Node& node) {
   NerfNodeConfig config;
   node.param("cameras", config.cameras, config.cameras);
   if (config.cameras.empty()) throw demnerf::core::Error("parameter ~cameras must name at least one camera namespace");
@@ -30,17 +33,9 @@ NerfNodeConfig NerfNodeConfig::fromParameters(const ros::NodeHandle& node) {
   readCount(node, "max_iterations", config.max_iterations, 0);
   readNumber(node, "autosave_seconds", config.autosave_seconds, 0.0);
   node.param("model_path", config.model_path, config.model_path);
-  readCount(node, "threads", config.threads, 0);
-  node.param("nerf_config", config.nerf_config, config.nerf_config);
-  readCount(node, "extract_resolution", config.extract_resolution, 16);
-  readNumber(node, "surface_opacity", config.surface_opacity, 0.0);
-  if (config.surface_opacity >= 1.0) throw demnerf::core::Error("parameter ~surface_opacity must lie in (0, 1)");
-  readNumber(node, "density_threshold", config.density_threshold, 0.0);
-  node.param("sampler", config.sampler, config.sampler);
-  if (config.sampler != "random" && config.sampler != "poisson" && config.sampler != "grid") {
-    throw demnerf::core::Error("parameter ~sampler must be random, poisson or grid, got '" + config.sampler + "'");
-  }
-  readNumber(node, "particle_spacing", config.particle_spacing, 0.0);
+  config.nerf = readNerfParameters(node);
+  config.extraction = readSurfaceParameters(node);
+  config.sampling = readSamplerParameters(node);
   if (config.model_path.empty()) {
     // Autosave somewhere even when nobody chose a path: a restart should not lose the training.
     const char* ros_home = std::getenv("ROS_HOME");
@@ -53,6 +48,12 @@ NerfNodeConfig NerfNodeConfig::fromParameters(const ros::NodeHandle& node) {
   }
   return config;
 }
+
+}  // namespace
+
+NerfNodeConfig NerfNodeConfig::fromParameters(const ros::NodeHandle& node) { return read(node); }
+
+NerfNodeConfig NerfNodeConfig::fromParameters(const ParameterMap& parameters) { return read(parameters); }
 
 FrameIntakeConfig NerfNodeConfig::intake() const {
   FrameIntakeConfig intake;
@@ -70,32 +71,6 @@ FrameIntakeConfig NerfNodeConfig::intake() const {
     intake.colour_key = key;
   }
   return intake;
-}
-
-demnerf::nerf::NerfConfig NerfNodeConfig::nerf() const {
-  demnerf::nerf::NerfConfig config = nerf_config.empty() ? demnerf::nerf::NerfConfig{} : demnerf::nerf::loadNerfConfig(nerf_config);
-  config.train.threads = threads;
-  config.validate();
-  return config;
-}
-
-demnerf::geometry::MeshExtractionConfig NerfNodeConfig::extraction() const {
-  demnerf::geometry::MeshExtractionConfig extraction;
-  if (density_threshold > 0.0) {
-    extraction.surface = demnerf::geometry::SurfaceDefinition::kDensity;
-    extraction.threshold = density_threshold;
-  } else {
-    extraction.surface = demnerf::geometry::SurfaceDefinition::kOpacity;
-    extraction.opacity = surface_opacity;
-  }
-  return extraction;
-}
-
-demnerf::geometry::SamplerConfig NerfNodeConfig::sampling(const std::string& sampler, double spacing) const {
-  demnerf::geometry::SamplerConfig sampling;
-  sampling.method = demnerf::geometry::parseSamplingMethod(sampler);
-  sampling.spacing = spacing;  // <= 0: particlesFromModel picks one from the body's size
-  return sampling;
 }
 
 }  // namespace dem_nerf

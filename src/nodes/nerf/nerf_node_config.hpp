@@ -10,7 +10,8 @@
 #include "demnerf/geometry/particle_sampler.hpp"
 #include "demnerf/nerf/config.hpp"
 #include "nodes/nerf/frame_intake.hpp"
-#include "pipeline/surface_defaults.hpp"
+#include "pipeline/surface_config.hpp"
+#include "ros_params/parameter_map.hpp"
 
 namespace dem_nerf {
 
@@ -32,22 +33,21 @@ struct NerfNodeConfig {
   int max_iterations = 0;             ///< stop after this many steps (0: no limit)
   double autosave_seconds = 30.0;     ///< save the model this often while training (0: never)
   std::string model_path;             ///< where the model is saved; resumed from on start if it exists
-  std::string nerf_config;            ///< nerf.yaml with the field and training settings (empty: defaults)
-  int threads = 0;                    ///< torch threads (0: all cores)
-  int extract_resolution = SurfaceDefaults{}.resolution;  ///< density grid cells along the longest side (192)
-  double surface_opacity = SurfaceDefaults{}.opacity;  ///< surface: where the body reaches this opacity from outside (0.15)
-  double density_threshold = 0.0;     ///< > 0: a density iso-surface instead (instant-ngp uses 2.5)
-  std::string sampler = "poisson";    ///< random | poisson | grid, for ~particles
-  double particle_spacing = 0.0;      ///< m; 0: 1/40 of the mesh's bounding-box diagonal
+  // The algorithms' settings, one namespace each (ros_params/nerf_parameters.hpp), the same
+  // configs and defaults as the CLI's: ~nerf over the file ~nerf_config, with ~threads (torch
+  // threads, 0: all cores) as train.threads; ~extraction as `demnerf extract`; ~sampling as
+  // `demnerf sample` (method poisson; spacing 0: 1/40 of the mesh's bounding-box diagonal).
+  demnerf::nerf::NerfConfig nerf;
+  SurfaceConfig extraction;
+  demnerf::geometry::SamplerConfig sampling;
 
   /// Throws demnerf::core::Error naming the first bad parameter.
   static NerfNodeConfig fromParameters(const ros::NodeHandle& private_node);
+  /// The same from parameters held in memory (no master; an empty map gives the defaults).
+  static NerfNodeConfig fromParameters(const ParameterMap& parameters);
 
-  // The library configs these parameters make, built here and nowhere else.
-  FrameIntakeConfig intake() const;  ///< frame checks, keyframe selection, colour key
-  demnerf::nerf::NerfConfig nerf() const;  ///< ~nerf_config's file (or defaults) with ~threads; validated
-  demnerf::geometry::MeshExtractionConfig extraction() const;  ///< opacity or density surface
-  demnerf::geometry::SamplerConfig sampling(const std::string& sampler, double spacing) const;
+  /// The frame intake's checks, keyframe selection and colour key these parameters make.
+  FrameIntakeConfig intake() const;
 };
 
 }  // namespace dem_nerf

@@ -53,10 +53,11 @@ bool NerfNode::extract(dem_nerf::ExtractParticles::Request& request, dem_nerf::E
   try {
     const auto model = currentModel();
     if (!model) throw demnerf::core::Error("no model yet: training has not started (waiting for keyframes)");
-    const std::string sampler = request.sampler.empty() ? config_.sampler : request.sampler;
     if (!std::isfinite(request.spacing) || request.spacing < 0) throw demnerf::core::Error("spacing must be >= 0 m");
-    const demnerf::core::ParticleCloud cloud = particlesFromModel(
-        *model, config_.extract_resolution, config_.extraction(), config_.sampling(sampler, request.spacing));
+    demnerf::geometry::SamplerConfig sampling = config_.sampling;  // ~sampling, unless the request says
+    if (!request.sampler.empty()) sampling.method = demnerf::geometry::parseSamplingMethod(request.sampler);
+    if (request.spacing > 0) sampling.spacing = request.spacing;
+    const demnerf::core::ParticleCloud cloud = particlesFromModel(*model, config_.extraction, sampling);
     std_msgs::Header header;
     header.stamp = ros::Time::now();
     header.frame_id = config_.world_frame;

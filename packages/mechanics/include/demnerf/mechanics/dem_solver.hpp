@@ -108,7 +108,7 @@ struct DemConfig {
   /// Torch threads (0: 1 below 50k particles, all cores above) and the grid Newton's assembly
   /// threads (0: all cores).
   int threads = 0;
-  bool tune_allocator = true;   ///< raise glibc's mmap threshold, process-wide, to reuse Adam's buffers (true)
+  bool tune_allocator = true;   ///< raise glibc's mmap threshold, process-wide, to reuse Adam's buffers (true); applied by the entry point (dem_node, `demnerf simulate`): keepLargeAllocationsInHeap()
   bool verbose = false;         ///< print training details (false)
 };
 

@@ -75,7 +75,7 @@ struct TrainConfig {
   double huber_delta = 0.1;
   bool random_background = true;           ///< for RGBA data (instant-ngp): new colour per ray
   std::uint64_t seed = 1;
-  int threads = 0;                         ///< 0: all cores
+  int threads = 0;                         ///< 0: all cores; the entry point applies it (configureRuntime), not the Trainer
 };
 
 struct NerfConfig {
@@ -93,7 +93,10 @@ struct NerfConfig {
 
 /// Reads a nerf.yaml (every key optional; unknown keys are errors naming the key).
 NerfConfig loadNerfConfig(const std::string& path);
-NerfConfig parseNerfConfig(const std::string& yaml_text, const std::string& source = "nerf config");
+/// The same from YAML text over `base` (keys left out keep base's value); `source` names the text
+/// in messages. nerf_node reads its ~nerf namespace so, over ~nerf_config's file.
+NerfConfig parseNerfConfig(const std::string& yaml_text, const std::string& source = "nerf config",
+                           NerfConfig base = {});
 
 nlohmann::json toJson(const NerfConfig& config);
 NerfConfig nerfConfigFromJson(const nlohmann::json& json);

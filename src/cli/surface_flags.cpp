@@ -1,0 +1,59 @@
+#include "surface_flags.hpp"
+
+#include <sstream>
+
+#include "command.hpp"
+#include "demnerf/core/error.hpp"
+
+namespace demnerf::cli {
+
+std::set<std::string> surfaceFlagNames() {
+  return {"resolution", "surface", "opacity", "threshold", "max-faces", "smooth", "box", "max-second-piece"};
+}
+
+dem_nerf::SurfaceConfig surfaceFlags(const Arguments& arguments) {
+  dem_nerf::SurfaceConfig config;
+  config.resolution = arguments.integer("resolution", config.resolution);
+  if (config.resolution < 8 || config.resolution > 1024)
+    throw UsageError("option --resolution expects 8..1024, got " + std::to_string(config.resolution));
+  const std::string surface = arguments.text("surface", arguments.has("threshold") ? "density" : "opacity");
+  try {
+    config.mesh.surface = geometry::parseSurfaceDefinition(surface);
+  } catch (const core::Error&) {
+    throw UsageError("option --surface expects density or opacity, got '" + surface + "'");
+  }
+  config.mesh.opacity = arguments.number("opacity", config.mesh.opacity);
+  if (!(config.mesh.opacity > 0.0 && config.mesh.opacity < 1.0)) throw UsageError("option --opacity expects a value in (0, 1)");
+  config.mesh.threshold = arguments.number("threshold", config.mesh.threshold);
+  if (!(config.mesh.threshold > 0.0)) throw UsageError("option --threshold expects a density > 0");
+  // At 192 cells the T-bar's surface has ~340k faces; a budget of 200k costs ~3-5 s of edge collapse.
+  const int max_faces = arguments.integer("max-faces", 0);
+  if (max_faces < 0) throw UsageError("option --max-faces expects a count >= 0 (0: keep every face)");
+  config.mesh.simplification.max_faces = static_cast<std::size_t>(max_faces);
+  config.mesh.repair.smoothing_iterations = arguments.integer("smooth", 0);
+  if (config.mesh.repair.smoothing_iterations < 0) throw UsageError("option --smooth expects a count >= 0");
+  if (arguments.has("box")) {
+    try {
+      config.box = geometry::parseBox(arguments.text("box"));
+    } catch (const core::Error& error) {
+      throw UsageError(std::string("option --box: ") + error.what());
+    }
+  }
+  config.isolation.max_second_piece_fraction =
+      arguments.number("max-second-piece", config.isolation.max_second_piece_fraction);
+  return config;
+}
+
+std::string surfaceFlagsUsage() {
+  const dem_nerf::SurfaceConfig defaults;  // the defaults printed are the ones that run, as nerf_node's
+  std::ostringstream text;
+  text << "[--resolution " << defaults.resolution << " (cells along the longest side)] [--surface opacity|density] "
+       << "[--opacity " << defaults.mesh.opacity << "] [--threshold " << defaults.mesh.threshold
+       << " (density surface)] [--max-faces 0 (0: keep all)] [--smooth 0] "
+       << "[--box xmin,ymin,zmin,xmax,ymax,zmax (the scene's frame: mesh only the object inside, its largest piece)] "
+       << "[--max-second-piece " << defaults.isolation.max_second_piece_fraction
+       << " (refuse a box whose second piece has this fraction of the largest's size)]";
+  return text.str();
+}
+
+}  // namespace demnerf::cli
