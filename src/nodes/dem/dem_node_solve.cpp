@@ -127,7 +127,7 @@ demnerf::mechanics::SimulationOutcome DemNode::solveJob(const SolveJob& job, Sol
     std::lock_guard<std::mutex> lock(mutex_);
     solve_progress_ = progress;
   };
-  // The DEM lives across solves (warm starts; with ~parametric, scaled loads need no training);
+  // The DEM lives across solves (warm starts; with ~dem/parametric/enabled, scaled loads need no training);
   // the baselines solve from scratch.
   if (job.settings.solver != demnerf::mechanics::SolverChoice::kDem) {
     report.figures.answered_by = dem_nerf::SolveAnswer::BASELINE;

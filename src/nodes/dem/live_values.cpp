@@ -89,8 +89,8 @@ LiveSolveSettings withLiveValues(const LiveSolveSettings& current, const LiveVal
   const LiveValues before = liveValuesOf(current);
   if (values.dem_grid_spacings != before.dem_grid_spacings) {
     if (current.options.dem.parametric.enabled)
-      throw Error("dem_grid_spacings does not apply with ~parametric: the parametric DEM is the MLP alone");
-    // Spacings rule once set here: a grid given by ~dem_grid_cell or ~dem_grid_body_cells yields.
+      throw Error("dem_grid_spacings does not apply with ~dem/parametric/enabled: the parametric DEM is the MLP alone");
+    // Spacings rule once set here: a grid given by ~dem/grid/cell or ~dem/grid/body_cells yields.
     // 0 goes back to the default grid, sized from the body (the MLP alone is ~dem_method mlp).
     next.options.dem.grid.spacings = values.dem_grid_spacings;
     next.options.dem.grid.cell = 0.0;
