@@ -148,35 +148,35 @@ void forwardImpl(const HashGridLayout& layout, const float* table, const float* 
   }
 }
 
+// One level's scatter; sample i's F gradient floats sit at grad + i * stride, so the same
+// kernel reads the row-major encoding gradient (stride levels * F) or a level-major copy
+// (stride F: a contiguous stream that leaves L2 to the level's table gradient).
 template <int F>
-void backwardTableImpl(const HashGridLayout& layout, const float* positions, std::int64_t n,
-                       const float* grad_out, float* grad_table, int level_begin, int level_end,
-                       std::uint8_t* touched, std::vector<std::int64_t>* touched_list) {
-  const int dims = layout.levels * F;
+void backwardLevelImpl(const HashGridLayout& layout, const float* positions, std::int64_t n, const float* grad,
+                       std::int64_t stride, float* grad_table, int level, std::uint8_t* touched,
+                       std::vector<std::int64_t>* touched_list) {
   thread_local LevelRun run;
-  for (int level = level_begin; level < level_end; ++level) {
-    const std::int64_t offset = layout.offset[level];
-    float* level_grad = grad_table + offset * F;
-    std::uint8_t* level_touched = touched ? touched + offset : nullptr;
-    for (std::int64_t first = 0; first < n; first += kRun) {
-      const int m = static_cast<int>(std::min<std::int64_t>(kRun, n - first));
-      levelRun(layout, level, positions + 3 * first, m, run);
-      if (!layout.dense[level]) {
-        for (int k = 0; k < 8; k += 2)
-          for (int i = 0; i < m; ++i) __builtin_prefetch(level_grad + static_cast<std::size_t>(run.index[k][i]) * F, 1);
-      }
-      const float* g_first = grad_out + first * dims + level * F;
-      for (int i = 0; i < m; ++i) {
-        const float* g = g_first + i * dims;
-        for (int k = 0; k < 8; ++k) {
-          const std::uint32_t e = run.index[k][i];
-          float* entry = level_grad + static_cast<std::size_t>(e) * F;
-          const float w = run.weight[k][i];
-          for (int f = 0; f < F; ++f) entry[f] += w * g[f];
-          if (level_touched) {
-            if (touched_list && !level_touched[e]) touched_list->push_back(offset + e);
-            level_touched[e] = 1;
-          }
+  const std::int64_t offset = layout.offset[level];
+  float* level_grad = grad_table + offset * F;
+  std::uint8_t* level_touched = touched ? touched + offset : nullptr;
+  for (std::int64_t first = 0; first < n; first += kRun) {
+    const int m = static_cast<int>(std::min<std::int64_t>(kRun, n - first));
+    levelRun(layout, level, positions + 3 * first, m, run);
+    if (!layout.dense[level]) {
+      for (int k = 0; k < 8; k += 2)
+        for (int i = 0; i < m; ++i) __builtin_prefetch(level_grad + static_cast<std::size_t>(run.index[k][i]) * F, 1);
+    }
+    const float* g_first = grad + first * stride;
+    for (int i = 0; i < m; ++i) {
+      const float* g = g_first + i * stride;
+      for (int k = 0; k < 8; ++k) {
+        const std::uint32_t e = run.index[k][i];
+        float* entry = level_grad + static_cast<std::size_t>(e) * F;
+        const float w = run.weight[k][i];
+        for (int f = 0; f < F; ++f) entry[f] += w * g[f];
+        if (level_touched) {
+          if (touched_list && !level_touched[e]) touched_list->push_back(offset + e);
+          level_touched[e] = 1;
         }
       }
     }
@@ -229,7 +229,7 @@ void dispatch(int features, Args&&... args) {
   }
 }
 template <int F> struct Fwd { template <typename... A> static void run(A&&... a) { forwardImpl<F>(a...); } };
-template <int F> struct BwdT { template <typename... A> static void run(A&&... a) { backwardTableImpl<F>(a...); } };
+template <int F> struct BwdL { template <typename... A> static void run(A&&... a) { backwardLevelImpl<F>(a...); } };
 template <int F> struct BwdP { template <typename... A> static void run(A&&... a) { backwardPositionsImpl<F>(a...); } };
 
 }  // namespace
@@ -270,8 +270,18 @@ void hashEncodeForward(const HashGridLayout& layout, const float* table, const f
 void hashEncodeBackwardTable(const HashGridLayout& layout, const float* positions, std::int64_t n,
                              const float* grad_out, float* grad_table, int level_begin, int level_end,
                              std::uint8_t* touched, std::vector<std::int64_t>* touched_list) {
-  dispatch<BwdT>(layout.features, layout, positions, n, grad_out, grad_table, level_begin, level_end, touched,
-                 touched_list);
+  const std::int64_t dims = layout.outputDims();
+  for (int level = level_begin; level < level_end; ++level) {
+    dispatch<BwdL>(layout.features, layout, positions, n, grad_out + level * layout.features, dims, grad_table,
+                   level, touched, touched_list);
+  }
+}
+
+void hashEncodeBackwardLevel(const HashGridLayout& layout, const float* positions, std::int64_t n,
+                             const float* grad, std::int64_t grad_stride, float* grad_table, int level,
+                             std::uint8_t* touched) {
+  dispatch<BwdL>(layout.features, layout, positions, n, grad, grad_stride, grad_table, level, touched,
+                 static_cast<std::vector<std::int64_t>*>(nullptr));
 }
 
 void hashEncodeBackwardPositions(const HashGridLayout& layout, const float* table, const float* positions,
