@@ -28,6 +28,35 @@ double threadSeconds() {
   return ts.tv_sec + 1e-9 * ts.tv_nsec;
 }
 
+/// The training step's table scatter: one level at a time over a whole batch (2^14 samples),
+/// reading the encoding gradient row-major (128-byte stride, as before) or level-major.
+void batchScatterCosts(const NgpField& field, const std::vector<float>& unit) {
+  const HashGridLayout& layout = field.hashLayout();
+  const int dims = layout.outputDims(), F = layout.features;
+  const std::int64_t n = 1 << 14;
+  std::vector<float> rows(n * dims), levels(n * dims), grad(field.table().size(), 0.0f);
+  std::vector<std::uint8_t> touched(layout.total_entries, 0);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> g(-1e-3f, 1e-3f);
+  for (float& v : rows) v = g(rng);
+  for (int l = 0; l < layout.levels; ++l)
+    for (std::int64_t i = 0; i < n; ++i)
+      for (int f = 0; f < F; ++f) levels[(l * n + i) * F + f] = rows[i * dims + l * F + f];
+  double row_major = 1e30, level_major = 1e30;
+  for (int repeat = 0; repeat < 3; ++repeat) {
+    double t0 = threadSeconds();
+    for (int l = 0; l < layout.levels; ++l)
+      hashEncodeBackwardLevel(layout, unit.data(), n, rows.data() + l * F, dims, grad.data(), l, touched.data());
+    const double t1 = threadSeconds();
+    for (int l = 0; l < layout.levels; ++l)
+      hashEncodeBackwardLevel(layout, unit.data(), n, levels.data() + l * n * F, F, grad.data(), l, touched.data());
+    row_major = std::min(row_major, t1 - t0);
+    level_major = std::min(level_major, threadSeconds() - t1);
+  }
+  std::printf("table_scatter_batch_row_major_us_per_sample %.3f\ntable_scatter_batch_level_major_us_per_sample %.3f\n",
+              1e6 * row_major / n, 1e6 * level_major / n);
+}
+
 /// One thread's cost per sample of the field's chunk kernels (the training step's forward and
 /// backward, the renderer's query) in thread-CPU microseconds, on the fox's field (2^17-entry
 /// tables, finest level 2048) at points spread like one round of rays: runs of 8 along lines.
@@ -99,6 +128,7 @@ void fieldCosts() {
   std::printf("field_forward_us_per_sample %.3f\nfield_forward_hash_part_us %.3f\nfield_forward_mlp_part_us %.3f\n"
               "field_backward_mlp_us_per_sample %.3f\nfield_backward_table_us_per_sample %.3f\n",
               forward * per, encode * per, (forward - encode) * per, backward * per, table * per);
+  batchScatterCosts(field, unit);
 }
 
 template <typename F>

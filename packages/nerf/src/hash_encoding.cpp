@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#if defined(__AVX512F__)
+#include <immintrin.h>
+#endif
 
 #include "demnerf/core/error.hpp"
 
@@ -116,6 +119,35 @@ inline void levelRun(const HashGridLayout& layout, int level, const float* posit
   }
 }
 
+// Two features per entry (the default): an entry is 8 bytes, so one 64-bit gather fetches
+// a corner's features for 8 points and one FMA weighs all 16 floats. Returns the points done
+// (a multiple of 8); the caller's scalar loop takes the rest, and all of them without AVX-512.
+inline int gatherPairs(const float* level_table, const LevelRun& run, int m, float* out, int dims) {
+  int i = 0;
+#if defined(__AVX512F__)
+  // Lane 2p and 2p+1 take point p's weight.
+  const __m512i dup = _mm512_set_epi32(7, 7, 6, 6, 5, 5, 4, 4, 3, 3, 2, 2, 1, 1, 0, 0);
+  for (; i + 8 <= m; i += 8) {
+    __m512 acc = _mm512_setzero_ps();
+    for (int k = 0; k < 8; ++k) {
+      const __m256i idx = _mm256_load_si256(reinterpret_cast<const __m256i*>(&run.index[k][i]));
+      const __m512d pairs = _mm512_i32gather_pd(idx, level_table, 8);
+      const __m512 w = _mm512_permutexvar_ps(dup, _mm512_castps256_ps512(_mm256_load_ps(&run.weight[k][i])));
+      acc = _mm512_fmadd_ps(w, _mm512_castpd_ps(pairs), acc);
+    }
+    alignas(64) float lanes[16];
+    _mm512_store_ps(lanes, acc);
+    for (int p = 0; p < 8; ++p) {
+      out[(i + p) * dims] = lanes[2 * p];
+      out[(i + p) * dims + 1] = lanes[2 * p + 1];
+    }
+  }
+#else
+  (void)level_table, (void)run, (void)m, (void)out, (void)dims;
+#endif
+  return i;
+}
+
 // Levels form the outer loop so one level's table slice stays in cache across the points;
 // all corner addresses of a run are known (and prefetched) before the first gather, so the
 // cache misses overlap instead of queueing one after another.
@@ -135,7 +167,9 @@ void forwardImpl(const HashGridLayout& layout, const float* table, const float* 
         for (int k = 0; k < 8; k += 2)  // x-neighbours (k, k+1) usually share a cache line
           for (int i = 0; i < m; ++i) __builtin_prefetch(level_table + static_cast<std::size_t>(run.index[k][i]) * F);
       }
-      for (int i = 0; i < m; ++i) {
+      int i = 0;
+      if constexpr (F == 2) i = gatherPairs(level_table, run, m, o + level * F, dims);
+      for (; i < m; ++i) {
         float acc[F] = {};
         for (int k = 0; k < 8; ++k) {
           const float* entry = level_table + static_cast<std::size_t>(run.index[k][i]) * F;
@@ -148,35 +182,35 @@ void forwardImpl(const HashGridLayout& layout, const float* table, const float* 
   }
 }
 
+// One level's scatter; sample i's F gradient floats sit at grad + i * stride, so the same
+// kernel reads the row-major encoding gradient (stride levels * F) or a level-major copy
+// (stride F: a contiguous stream that leaves L2 to the level's table gradient).
 template <int F>
-void backwardTableImpl(const HashGridLayout& layout, const float* positions, std::int64_t n,
-                       const float* grad_out, float* grad_table, int level_begin, int level_end,
-                       std::uint8_t* touched, std::vector<std::int64_t>* touched_list) {
-  const int dims = layout.levels * F;
+void backwardLevelImpl(const HashGridLayout& layout, const float* positions, std::int64_t n, const float* grad,
+                       std::int64_t stride, float* grad_table, int level, std::uint8_t* touched,
+                       std::vector<std::int64_t>* touched_list) {
   thread_local LevelRun run;
-  for (int level = level_begin; level < level_end; ++level) {
-    const std::int64_t offset = layout.offset[level];
-    float* level_grad = grad_table + offset * F;
-    std::uint8_t* level_touched = touched ? touched + offset : nullptr;
-    for (std::int64_t first = 0; first < n; first += kRun) {
-      const int m = static_cast<int>(std::min<std::int64_t>(kRun, n - first));
-      levelRun(layout, level, positions + 3 * first, m, run);
-      if (!layout.dense[level]) {
-        for (int k = 0; k < 8; k += 2)
-          for (int i = 0; i < m; ++i) __builtin_prefetch(level_grad + static_cast<std::size_t>(run.index[k][i]) * F, 1);
-      }
-      const float* g_first = grad_out + first * dims + level * F;
-      for (int i = 0; i < m; ++i) {
-        const float* g = g_first + i * dims;
-        for (int k = 0; k < 8; ++k) {
-          const std::uint32_t e = run.index[k][i];
-          float* entry = level_grad + static_cast<std::size_t>(e) * F;
-          const float w = run.weight[k][i];
-          for (int f = 0; f < F; ++f) entry[f] += w * g[f];
-          if (level_touched) {
-            if (touched_list && !level_touched[e]) touched_list->push_back(offset + e);
-            level_touched[e] = 1;
-          }
+  const std::int64_t offset = layout.offset[level];
+  float* level_grad = grad_table + offset * F;
+  std::uint8_t* level_touched = touched ? touched + offset : nullptr;
+  for (std::int64_t first = 0; first < n; first += kRun) {
+    const int m = static_cast<int>(std::min<std::int64_t>(kRun, n - first));
+    levelRun(layout, level, positions + 3 * first, m, run);
+    if (!layout.dense[level]) {
+      for (int k = 0; k < 8; k += 2)
+        for (int i = 0; i < m; ++i) __builtin_prefetch(level_grad + static_cast<std::size_t>(run.index[k][i]) * F, 1);
+    }
+    const float* g_first = grad + first * stride;
+    for (int i = 0; i < m; ++i) {
+      const float* g = g_first + i * stride;
+      for (int k = 0; k < 8; ++k) {
+        const std::uint32_t e = run.index[k][i];
+        float* entry = level_grad + static_cast<std::size_t>(e) * F;
+        const float w = run.weight[k][i];
+        for (int f = 0; f < F; ++f) entry[f] += w * g[f];
+        if (level_touched) {
+          if (touched_list && !level_touched[e]) touched_list->push_back(offset + e);
+          level_touched[e] = 1;
         }
       }
     }
@@ -229,7 +263,7 @@ void dispatch(int features, Args&&... args) {
   }
 }
 template <int F> struct Fwd { template <typename... A> static void run(A&&... a) { forwardImpl<F>(a...); } };
-template <int F> struct BwdT { template <typename... A> static void run(A&&... a) { backwardTableImpl<F>(a...); } };
+template <int F> struct BwdL { template <typename... A> static void run(A&&... a) { backwardLevelImpl<F>(a...); } };
 template <int F> struct BwdP { template <typename... A> static void run(A&&... a) { backwardPositionsImpl<F>(a...); } };
 
 }  // namespace
@@ -270,8 +304,18 @@ void hashEncodeForward(const HashGridLayout& layout, const float* table, const f
 void hashEncodeBackwardTable(const HashGridLayout& layout, const float* positions, std::int64_t n,
                              const float* grad_out, float* grad_table, int level_begin, int level_end,
                              std::uint8_t* touched, std::vector<std::int64_t>* touched_list) {
-  dispatch<BwdT>(layout.features, layout, positions, n, grad_out, grad_table, level_begin, level_end, touched,
-                 touched_list);
+  const std::int64_t dims = layout.outputDims();
+  for (int level = level_begin; level < level_end; ++level) {
+    dispatch<BwdL>(layout.features, layout, positions, n, grad_out + level * layout.features, dims, grad_table,
+                   level, touched, touched_list);
+  }
+}
+
+void hashEncodeBackwardLevel(const HashGridLayout& layout, const float* positions, std::int64_t n,
+                             const float* grad, std::int64_t grad_stride, float* grad_table, int level,
+                             std::uint8_t* touched) {
+  dispatch<BwdL>(layout.features, layout, positions, n, grad, grad_stride, grad_table, level, touched,
+                 static_cast<std::vector<std::int64_t>*>(nullptr));
 }
 
 void hashEncodeBackwardPositions(const HashGridLayout& layout, const float* table, const float* positions,

@@ -1,6 +1,7 @@
 #include <ATen/Parallel.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <memory>
@@ -19,7 +20,9 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
-constexpr int kTrainBlock = 128;  // rays per block: its first round fills several pieces
+// Rays per block: its first round still fills two pieces, and a batch of 512 rays makes 8
+// blocks, enough for the workers to take them dynamically and finish together.
+constexpr int kTrainBlock = 64;
 
 /// Up to kChunk samples of one round, with the activations the backward pass needs, so the
 /// backward needs no second forward.
@@ -32,14 +35,25 @@ struct Piece {
   int ray[NgpField::kChunk];  ///< block ray; -1 when the ray was opaque before this sample
 };
 
+/// What one block of rays leaves for the reductions after the parallel pass. Workers take
+/// blocks in whatever order they come free; the reductions run in block order, so the step's
+/// result does not depend on which worker took which block, nor on the thread count.
+struct BlockResult {
+  int worker = 0;
+  std::int64_t enc_first = 0, enc_count = 0;  ///< its samples in the worker's enc buffers
+  MlpGradients grads;
+  double loss = 0, sq_error = 0;
+};
+
 /// Everything one worker thread keeps between the passes and across steps.
 struct Worker {
   detail::Round round;
-  MlpGradients grads;
   std::vector<std::unique_ptr<Piece>> pieces;  ///< pool, reused across blocks and steps
   std::size_t used = 0;                        ///< pieces holding this block's samples
-  // Inputs of the table backward: positions and d(loss)/d(encoding) of every sample.
-  std::vector<float> enc_pos, enc_grad;
+  // Inputs of the table backward: positions and d(loss)/d(encoding) of every sample, the
+  // gradient level-major within each block (level l of a block of S samples: S x features
+  // floats at l * S * features), so each level's scatter streams its inputs.
+  std::vector<float> enc_pos, enc_grad, piece_grad;
   std::int64_t enc_count = 0;
   double loss = 0, sq_error = 0;
   double march_seconds = 0, encode_seconds = 0;  // for the time breakdown
@@ -57,7 +71,6 @@ struct Worker {
     loss = sq_error = 0;
     samples = marched = enc_count = 0;
     march_seconds = encode_seconds = 0;
-    grads.zero();
   }
 };
 
@@ -146,13 +159,19 @@ void blockLoss(const TrainConfig& train, const TrainRays& batch, Worker& st, std
 
 /// Backward of one block: per-sample gradients from the ray totals, the fused MLP backward,
 /// and the samples' encoding gradients queued for the table scatter.
-void backwardBlock(const NgpField& field, Worker& st) {
-  const int enc_dims = field.hashLayout().outputDims();
+void backwardBlock(const NgpField& field, Worker& st, BlockResult& block) {
+  const HashGridLayout& layout = field.hashLayout();
+  const int enc_dims = layout.outputDims(), features = layout.features;
   std::int64_t block_samples = 0;
   for (std::size_t p = 0; p < st.used; ++p) block_samples += st.pieces[p]->count;
   const std::size_t need = static_cast<std::size_t>(st.enc_count + block_samples);
   if (st.enc_pos.size() < 3 * need) st.enc_pos.resize(3 * need * 3 / 2);
   if (st.enc_grad.size() < enc_dims * need) st.enc_grad.resize(enc_dims * need * 3 / 2);
+  st.piece_grad.resize(static_cast<std::size_t>(NgpField::kChunk) * enc_dims);
+  block.enc_first = st.enc_count;
+  block.enc_count = block_samples;
+  float* block_grad = st.enc_grad.data() + static_cast<std::size_t>(st.enc_count) * enc_dims;
+  std::int64_t done = 0;  // samples of the block already written
   for (std::size_t p = 0; p < st.used; ++p) {
     Piece& pc = *st.pieces[p];
     for (int i = 0; i < pc.count; ++i) {
@@ -169,10 +188,15 @@ void backwardBlock(const NgpField& field, Worker& st) {
       st.g_sigma[i] = colorSigmaGradient(st.grad_color[j], pc.rgb + 3 * i, t_next, st.total_color[j],
                                          pc.c_upto + 3 * i) * pc.dt[i];
     }
-    field.backwardChunk(pc.count, pc.ws, st.g_sigma, st.g_rgb, st.grads,
-                        st.enc_grad.data() + static_cast<std::size_t>(st.enc_count) * enc_dims);
+    field.backwardChunk(pc.count, pc.ws, st.g_sigma, st.g_rgb, block.grads, st.piece_grad.data());
+    for (int l = 0; l < layout.levels; ++l) {
+      float* dst = block_grad + (l * block_samples + done) * features;
+      for (int i = 0; i < pc.count; ++i)
+        for (int f = 0; f < features; ++f) dst[i * features + f] = st.piece_grad[i * enc_dims + l * features + f];
+    }
     std::copy(pc.unit, pc.unit + 3 * pc.count, st.enc_pos.data() + 3 * st.enc_count);
     st.enc_count += pc.count;
+    done += pc.count;
     st.encode_seconds += pc.ws.encode_seconds;
     pc.ws.encode_seconds = 0;
   }
@@ -181,6 +205,7 @@ void backwardBlock(const NgpField& field, Worker& st) {
 }  // namespace
 
 struct TrainEngine::ThreadState : Worker {};
+struct TrainEngine::BlockState : BlockResult {};
 
 TrainEngine::TrainEngine(NerfModel& model) : model_(model) {
   NgpField& f = model.ngp();
@@ -212,10 +237,12 @@ StepResult TrainEngine::step(const TrainRays& batch, float learning_rate) {
   StepResult result;
   result.rays = batch.size();
   for (const auto& st : threads_) {
-    result.loss += st->loss;
-    result.mse += st->sq_error;
     result.samples += st->samples;
     result.marched += st->marched;
+  }
+  for (std::int64_t b = 0; b < block_count_; ++b) {
+    result.loss += blocks_[b]->loss;
+    result.mse += blocks_[b]->sq_error;
   }
   result.loss /= std::max<double>(1.0, 3.0 * batch.size());
   result.mse /= std::max<double>(1.0, 3.0 * batch.size());
@@ -228,29 +255,42 @@ void TrainEngine::runPasses(const TrainRays& batch) {
   const int workers = std::max(1, at::get_num_threads());
   while (static_cast<int>(threads_.size()) < workers) {
     auto state = std::make_shared<ThreadState>();
-    state->grads.density.assign(field.densityWeights().size(), 0.0f);
-    state->grads.color.assign(field.colorWeights().size(), 0.0f);
     const int per_round = model_.config().march.samples_per_round;
     state->round.reserve(kTrainBlock, kTrainBlock * per_round);
     threads_.push_back(state);
   }
+  block_count_ = std::max<std::int64_t>(1, (n + kTrainBlock - 1) / kTrainBlock);  // >= 1: updateMlps sums from block 0
+  while (static_cast<std::int64_t>(blocks_.size()) < block_count_) {
+    auto block = std::make_shared<BlockState>();
+    block->grads.density.assign(field.densityWeights().size(), 0.0f);
+    block->grads.color.assign(field.colorWeights().size(), 0.0f);
+    blocks_.push_back(block);
+  }
   const auto t0 = Clock::now();
   double forward_seconds = 0.0, backward_seconds = 0.0, march_share = 0.0, encode_share = 0.0;
-  // One contiguous slice of rays per worker: the partition, and so the result, depends only
-  // on the thread count.
+  // Blocks go to whichever worker is free (rays differ in samples, so equal slices of rays
+  // left one thread waiting for the other).
+  std::atomic<std::int64_t> next{0};
   at::parallel_for(0, workers, 1, [&](std::int64_t wbegin, std::int64_t wend) {
     for (std::int64_t w = wbegin; w < wend; ++w) {
       Worker& st = *threads_[w];
       st.reset();
       double p1 = 0, p2 = 0;
-      for (std::int64_t first = n * w / workers; first < n * (w + 1) / workers; first += kTrainBlock) {
-        const int rays = static_cast<int>(std::min<std::int64_t>(kTrainBlock, n * (w + 1) / workers - first));
+      for (std::int64_t b = next++; b < block_count_; b = next++) {
+        BlockResult& block = *blocks_[b];
+        block.worker = static_cast<int>(w);
+        block.grads.zero();
+        const std::int64_t first = b * kTrainBlock;
+        const int rays = static_cast<int>(std::min<std::int64_t>(kTrainBlock, n - first));
         const auto tp1 = Clock::now();
         marchBlock(model_, batch, st, first, rays);
+        st.loss = st.sq_error = 0;
         blockLoss(model_.config().train, batch, st, first, rays);
+        block.loss = st.loss;
+        block.sq_error = st.sq_error;
         const auto tp2 = Clock::now();
         p1 += std::chrono::duration<double>(tp2 - tp1).count();
-        backwardBlock(field, st);
+        backwardBlock(field, st, block);
         p2 += since(tp2);
       }
       if (w == 0) {
@@ -272,31 +312,43 @@ void TrainEngine::runPasses(const TrainRays& batch) {
 }
 
 void TrainEngine::updateTable(const AdamHyper& h) {
-  // Levels own disjoint table ranges, so workers split the levels and update each level's
-  // touched entries while they are still in cache.
+  // Levels own disjoint table ranges, so workers take whole levels and update each level's
+  // touched entries while they are still in cache. Levels are taken finest first as workers
+  // come free: the hashed fine levels cost most, and a fixed split of the level range left
+  // one worker with the cheap dense levels.
   NgpField& field = model_.ngp();
   const auto t1 = Clock::now();
   const HashGridLayout& layout = field.hashLayout();
+  const int workers = std::max(1, at::get_num_threads());
+  const int features = layout.features;
   std::vector<double> table_seconds(layout.levels, 0.0);
-  at::parallel_for(0, layout.levels, 1, [&](std::int64_t lbegin, std::int64_t lend) {
-    for (std::int64_t l = lbegin; l < lend; ++l) {
-      const auto ts = Clock::now();
-      for (const auto& st : threads_) {
-        hashEncodeBackwardTable(layout, st->enc_pos.data(), st->enc_count, st->enc_grad.data(), table_grad_.data(),
-                                static_cast<int>(l), static_cast<int>(l + 1), touched_.data());
+  std::atomic<int> next{0};
+  at::parallel_for(0, workers, 1, [&](std::int64_t wbegin, std::int64_t wend) {
+    for (std::int64_t w = wbegin; w < wend; ++w) {
+      for (int k = next++; k < layout.levels; k = next++) {
+        const int l = layout.levels - 1 - k;
+        const auto ts = Clock::now();
+        // Blocks in order: the table gradient is summed in the same order on every run.
+        for (std::int64_t b = 0; b < block_count_; ++b) {
+          const BlockResult& block = *blocks_[b];
+          const Worker& st = *threads_[block.worker];
+          const float* grad = st.enc_grad.data() + block.enc_first * layout.outputDims() +
+                              static_cast<std::int64_t>(l) * block.enc_count * features;
+          hashEncodeBackwardLevel(layout, st.enc_pos.data() + 3 * block.enc_first, block.enc_count, grad, features,
+                                  table_grad_.data(), l, touched_.data());
+        }
+        table_seconds[l] = since(ts);
+        // A sequential sweep over the level's flags streams through memory; visiting a list
+        // of touched entries in scatter order would miss the cache on nearly every entry.
+        adamTouched(h, field.table().data(), table_grad_.data(), table_moments_, layout.offset[l],
+                    layout.offset[l] + layout.entries[l], features, touched_.data());
       }
-      table_seconds[l] = since(ts);
-      // A sequential sweep over the level's flags streams through memory; visiting a list
-      // of touched entries in scatter order would miss the cache on nearly every entry.
-      adamTouched(h, field.table().data(), table_grad_.data(), table_moments_, layout.offset[l],
-                  layout.offset[l] + layout.entries[l], layout.features, touched_.data());
     }
   });
   const double table_total = since(t1);
   double scatter = 0.0;
   for (double v : table_seconds) scatter += v;
   // Split the section's wall time by the share the scatter took (summed over workers).
-  const int workers = std::max(1, at::get_num_threads());
   const double share = std::min(1.0, scatter / std::max(1e-12, table_total * std::min(workers, layout.levels)));
   times_.backward_table += table_total * share;
   times_.optimizer += table_total * (1.0 - share);
@@ -305,11 +357,12 @@ void TrainEngine::updateTable(const AdamHyper& h) {
 void TrainEngine::updateMlps(const AdamHyper& h) {
   NgpField& field = model_.ngp();
   const auto t2 = Clock::now();
-  // Sum the workers' gradients in a fixed order, then one fused Adam pass.
-  MlpGradients& sum = threads_[0]->grads;
-  for (std::size_t w = 1; w < threads_.size(); ++w) {
-    for (std::size_t i = 0; i < sum.density.size(); ++i) sum.density[i] += threads_[w]->grads.density[i];
-    for (std::size_t i = 0; i < sum.color.size(); ++i) sum.color[i] += threads_[w]->grads.color[i];
+  // Sum the blocks' gradients in block order, then one fused Adam pass.
+  MlpGradients& sum = blocks_[0]->grads;
+  for (std::int64_t b = 1; b < block_count_; ++b) {
+    const MlpGradients& g = blocks_[b]->grads;
+    for (std::size_t i = 0; i < sum.density.size(); ++i) sum.density[i] += g.density[i];
+    for (std::size_t i = 0; i < sum.color.size(); ++i) sum.color[i] += g.color[i];
   }
   adamDense(h, field.densityWeights().data(), sum.density.data(), density_moments_,
             static_cast<std::int64_t>(field.densityWeights().size()));

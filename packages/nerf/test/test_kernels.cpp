@@ -97,6 +97,32 @@ TEST(HashEncoding, TableGradientMatchesFiniteDifferences) {
   EXPECT_GT(nonzero, 20);  // the check touched entries that matter
 }
 
+// The training step scatters a level-major copy of the encoding gradient (one level's
+// samples contiguous); it must add exactly what the row-major kernel, checked against finite
+// differences above, adds, over more points than one run of the kernel (256) holds.
+TEST(HashEncoding, LevelMajorScatterEqualsRowMajor) {
+  const HashGridLayout layout = HashGridLayout::make(smallGrid());
+  const int n = 300, F = layout.features, dims = layout.outputDims();
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(-0.05f, 1.05f), g(-1.0f, 1.0f);  // some clamped
+  std::vector<float> pos(3 * n), grad(n * dims), level_major(n * dims);
+  for (float& v : pos) v = u(rng);
+  for (float& v : grad) v = g(rng);
+  for (int l = 0; l < layout.levels; ++l)
+    for (int i = 0; i < n; ++i)
+      for (int f = 0; f < F; ++f) level_major[(l * n + i) * F + f] = grad[i * dims + l * F + f];
+  std::vector<float> want(layout.parameterCount(), 0.0f), got(want.size(), 0.0f);
+  std::vector<std::uint8_t> want_touched(layout.total_entries, 0), got_touched(want_touched);
+  hashEncodeBackwardTable(layout, pos.data(), n, grad.data(), want.data(), 0, layout.levels, want_touched.data());
+  for (int l = layout.levels - 1; l >= 0; --l)  // any level order: levels own disjoint ranges
+    hashEncodeBackwardLevel(layout, pos.data(), n, level_major.data() + l * n * F, F, got.data(), l, got_touched.data());
+  EXPECT_EQ(got, want);
+  EXPECT_EQ(got_touched, want_touched);
+  int nonzero = 0;
+  for (float v : got) nonzero += v != 0.0f;
+  EXPECT_GT(nonzero, 200);
+}
+
 TEST(HashEncoding, PositionGradientMatchesFiniteDifferences) {
   const HashGridLayout layout = HashGridLayout::make(smallGrid());
   std::mt19937 rng(5);

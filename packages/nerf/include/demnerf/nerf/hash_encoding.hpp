@@ -38,6 +38,12 @@ void hashEncodeForward(const HashGridLayout& layout, const float* table, const f
 void hashEncodeBackwardTable(const HashGridLayout& layout, const float* positions, std::int64_t n,
                              const float* grad_out, float* grad_table, int level_begin, int level_end,
                              std::uint8_t* touched = nullptr, std::vector<std::int64_t>* touched_list = nullptr);
+/// Adds d(loss)/d(table) of one level; sample i's `features` gradient floats are read at
+/// grad + i * grad_stride (levels * features for the n x outputDims() encoding gradient,
+/// features for a level-major copy, which streams instead of striding).
+void hashEncodeBackwardLevel(const HashGridLayout& layout, const float* positions, std::int64_t n,
+                             const float* grad, std::int64_t grad_stride, float* grad_table, int level,
+                             std::uint8_t* touched = nullptr);
 /// Writes d(loss)/d(positions) (n x 3), positions in the unit cube.
 void hashEncodeBackwardPositions(const HashGridLayout& layout, const float* table, const float* positions,
                                  std::int64_t n, const float* grad_out, float* grad_positions);

@@ -75,6 +75,7 @@ class TrainEngine {
 
  private:
   struct ThreadState;
+  struct BlockState;
   /// March, forward, composite + loss and backward of every ray, split over the workers.
   void runPasses(const TrainRays& rays);
   /// Hash table gradient scatter and its Adam step.
@@ -87,6 +88,8 @@ class TrainEngine {
   std::vector<float> table_grad_;
   std::vector<std::uint8_t> touched_;
   std::vector<std::shared_ptr<ThreadState>> threads_;
+  std::vector<std::shared_ptr<BlockState>> blocks_;  ///< per block of rays, reused across steps
+  std::int64_t block_count_ = 0;                      ///< blocks of the latest batch
   StepTimes times_;
 };
 
