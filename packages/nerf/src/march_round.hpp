@@ -25,16 +25,17 @@ struct Round {
   }
 };
 
-/// Marches every live ray of the block for one round (per_ray samples at most each); each
-/// sample gets its ray's direction. Returns the number of samples.
-inline int marchRound(const MarchParams& params, const OccupancyGrid& grid, std::vector<RayCursor>& cursors,
-                      int rays, int per_ray, Round& round) {
+/// Marches every live ray of the block for one round, ray j taking per_ray(j) samples at most;
+/// each sample gets its ray's direction. Returns the number of samples.
+template <class PerRay>
+int marchRoundEach(const MarchParams& params, const OccupancyGrid& grid, std::vector<RayCursor>& cursors, int rays,
+                   PerRay per_ray, Round& round) {
   int total = 0;
   for (int j = 0; j < rays; ++j) {
     round.first[j] = total;
     round.count[j] = 0;
     if (cursors[j].done) continue;
-    const int got = marchRay(params, grid, cursors[j], per_ray, round.world.data() + 3 * total,
+    const int got = marchRay(params, grid, cursors[j], per_ray(j), round.world.data() + 3 * total,
                              round.t.data() + total, round.dt.data() + total);
     for (int s = total; s < total + got; ++s)
       for (int a = 0; a < 3; ++a) round.dirs[3 * s + a] = cursors[j].direction[a];
@@ -42,6 +43,12 @@ inline int marchRound(const MarchParams& params, const OccupancyGrid& grid, std:
     total += got;
   }
   return total;
+}
+
+/// The same with per_ray samples for every ray.
+inline int marchRound(const MarchParams& params, const OccupancyGrid& grid, std::vector<RayCursor>& cursors,
+                      int rays, int per_ray, Round& round) {
+  return marchRoundEach(params, grid, cursors, rays, [per_ray](int) { return per_ray; }, round);
 }
 
 }  // namespace demnerf::nerf::detail

@@ -12,6 +12,15 @@ namespace {
 
 constexpr int kBlockRays = 64;  // rays marched together; one round is <= 64 * 32 samples
 
+/// Samples ray j takes in the next round. A round's samples past the point where its ray turns
+/// opaque are computed for nothing, so a ray that has already lost much of its light (it is
+/// inside a surface) takes few; a clear ray takes `clear`, which grows round by round so that long
+/// rays through thin fog cost few rounds.
+int roundBudget(const RayAccum& acc, int clear) {
+  if (acc.transmittance > 0.5f) return clear;
+  return acc.transmittance > 0.1f ? std::min(clear, 4) : 2;
+}
+
 /// Composites one round's samples onto the block's rays; a ray that turns opaque is done.
 void compositeRound(const detail::Round& round, int rays, float min_transmittance, std::vector<RayAccum>& acc,
                     std::vector<RayCursor>& cursors) {
@@ -49,7 +58,8 @@ std::int64_t renderRays(const Field& field, const MarchScene& scene, const float
       }
       // Rays get more samples per round as they survive, so long empty-ish rays cost few rounds.
       for (int per_ray = scene.samples_per_round;; per_ray = std::min(per_ray * 2, max_per_round)) {
-        const int total = detail::marchRound(scene.params, scene.grid, cursors, rays, per_ray, round);
+        const int total = detail::marchRoundEach(
+            scene.params, scene.grid, cursors, rays, [&](int j) { return roundBudget(acc[j], per_ray); }, round);
         if (total == 0) break;
         samples_per_block[b] += total;
         // Inside this parallel region the field's own parallel_for runs inline on this thread.
