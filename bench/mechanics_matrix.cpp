@@ -23,6 +23,8 @@
 //   out=DIR (default output/bench/mechanics_matrix: reference and NeRF caches, CSV/MD/PNG)
 //   docs=DIR (default docs/ for a full run, none for quick=1 or a subset: also write
 //             DIR/mechanics_matrix.{csv,md,png})
+//   config=FILE (the dem column's settings over the defaults, as `demnerf simulate --config FILE`)
+//   rows=SAMPLER/DIV,... (solve cells only on these rows, e.g. random/10; the reference stays on all)
 //   quick=1: beam3d, grid sampler, coarsest spacing, exact surface, solvers fem,dem (a smoke run)
 // Prints one line per cell as it finishes and the Markdown table at the end.
 
@@ -45,6 +47,7 @@
 #include "demnerf/mechanics/compare_results.hpp"
 #include "demnerf/mechanics/simulate.hpp"
 #include "demnerf/mechanics/solve_control.hpp"
+#include "demnerf/mechanics/solver_config_yaml.hpp"
 #include "mechanics_bench_common.hpp"
 #include "mechanics_matrix_cases.hpp"
 #include "mechanics_matrix_nerf.hpp"
@@ -74,7 +77,8 @@ struct Settings {
   double grid_spacings = 2.0, extension_fill = 0.75, body_cells = 0.0;  // the dem_cells / dem_ext columns
   int boundary_levels = 1;
   int mlp_iters = 1500, ref_div = 8, conv_div = 6, seed = 1;
-  std::string out, docs, title, yaml;
+  std::string out, docs, title, yaml, config;
+  std::vector<std::string> rows;
   bool partial = false;
 };
 
@@ -104,9 +108,11 @@ Settings parseSettings(int argc, char** argv) {
   s.body_cells = num("body_cells", s.body_cells);
   s.boundary_levels = static_cast<int>(num("levels", s.boundary_levels));
   s.yaml = text("yaml", "");
+  s.config = text("config", "");
+  s.rows = split(text("rows", ""));
   if (!s.yaml.empty() && s.scenarios.size() != 1) throw demnerf::core::Error("yaml= needs exactly one scenario in scenarios=");
-  s.partial = !s.yaml.empty() || s.scenarios.size() < bench::matrixCases().size() || s.samplers.size() < 3 || s.sources.size() < 2 ||
-              s.solvers.size() < 4 || s.divisors.size() < 3;
+  s.partial = !s.yaml.empty() || !s.config.empty() || !s.rows.empty() || s.scenarios.size() < bench::matrixCases().size() ||
+              s.samplers.size() < 3 || s.sources.size() < 2 || s.solvers.size() < 4 || s.divisors.size() < 3;
   s.out = text("out", std::string(DEMNERF_ROOT) + "/output/bench/mechanics_matrix");
   s.docs = text("docs", s.partial ? "" : std::string(DEMNERF_ROOT) + "/docs");
   s.title = "mechanics_matrix";
@@ -125,7 +131,8 @@ dm::SimulateOptions solverOptions(const std::string& solver, const Settings& s, 
     o.voxel.order = 2;
   } else if (solver == "dem") {
     // DemConfig's defaults, as `demnerf simulate` runs them: the body-sized grid, cell
-    // quadrature, extended B-splines, Newton only.
+    // quadrature, extended B-splines, Newton only (config=: a settings file over them).
+    if (!s.config.empty()) o = dm::loadSolverConfig(s.config, o);
   } else if (solver == "dem_particles") {
     o.dem.grid.spacings = 2;  // the earlier default: cells of 2 particle spacings, particle quadrature
     o.dem.grid.body_cells = 0;
@@ -326,7 +333,8 @@ void runSource(const bench::MatrixCase& mc, const core::Scenario& scenario, cons
   const bench::Reference fine = referencePair(mc, scenario, source, surface, s, sc, report);
   for (std::size_t r = 0; r < sc.rows.size(); ++r) {
     bench::MatrixRow& row = sc.rows[r];
-    if (row.cloud_error.empty()) {
+    const std::string key = row.sampler + "/" + std::to_string(row.spacing_divisor);
+    if (row.cloud_error.empty() && (s.rows.empty() || std::count(s.rows.begin(), s.rows.end(), key))) {
       core::ResultField reference;
       if (fine.error.empty()) {
         reference = slice(fine.field, sc.offsets[r], sc.clouds[r].size());

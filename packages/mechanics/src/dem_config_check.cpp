@@ -34,8 +34,10 @@ void checkGridSettings(const DemConfig& config) {
 }
 
 // A resolved grid against the particles that integrate it or carry its loads.
-// The finest cell the cells' rule takes, in (90th-percentile) particle spacings.
-constexpr double kFinestCellInSpacings = 0.75;
+// The finest cell the cells' rule takes, in (90th-percentile) particle spacings. 0.75 coarsened a
+// random 432-particle cube (90th percentile 19.8 mm at a 16.7 mm sampler spacing) from the body's
+// 11.9 mm cells to 14.8 mm, where its 30 % compression came out 5.5 % off (1.5 % at 11.9 mm).
+constexpr double kFinestCellInSpacings = 0.6;
 
 void checkGridAgainstParticles(const DemConfig& config, double spacing) {
   if (config.grid.cell > 0 && (config.parametric.enabled || config.boundary.kind != DemConfig::Boundary::kExact ||

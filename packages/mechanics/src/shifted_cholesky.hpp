@@ -2,16 +2,21 @@
 // The feature grid Newton's linear solver (grid_field_newton.cpp, its only includer). Private to
 // packages/mechanics/src.
 
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
+#include <Eigen/Eigenvalues>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <vector>
 
 namespace demnerf::mechanics {
 
-// Solves (H + shift I) x = b with the smallest shift (0 first) that makes H positive definite.
+// Solves (H + shift I) x = b with a shift that makes H positive definite: 0 when Lanczos finds no
+// negative curvature, else twice the most negative eigenvalue it estimates (doubled while the
+// factorisation fails).
 // Newton's Hessians change little from one iteration to the next, so the last factorisation
 // preconditions conjugate gradients on the new one; it is refactorised only when CG needs more
 // than kMaxReuseIterations or meets negative curvature (as the FEM baseline does).
@@ -20,7 +25,8 @@ namespace demnerf::mechanics {
 // dissection of the grid), the symbolic analysis is run for it and for Eigen's AMD, and the order
 // whose factor costs fewer operations is kept. Neither wins everywhere: on one T-bar cloud AMD's
 // factor held 68 % of a dense one's entries (3.3 s per factorisation, 1 s with dissection), on
-// another it took 0.2 s where dissection took twice as long.
+// another it took 0.2 s where dissection took twice as long. A factor nearly as full as a dense
+// one (a compact body) is factorised dense instead (see factorise()).
 class ShiftedCholesky {
  public:
   /// Node i's dofs 3 i .. 3 i + 2 are eliminated in the order the nodes appear in `order`.
@@ -32,31 +38,43 @@ class ShiftedCholesky {
     ordered_ = true;
   }
 
+  /// The last factorisation's shift (relative to the mean diagonal), their count, and whether they
+  /// are dense (a compact body's nearly full factor): for the grid Newton's verbose report.
+  double lastShift() const { return last_shift_; }
+  int factorisations() const { return factorisations_; }
+  bool dense() const { return dense_; }
+
   Eigen::VectorXd solve(const Eigen::SparseMatrix<double>& H, const Eigen::VectorXd& b, double initial_shift) {
     if (factorised_) {
       Eigen::VectorXd x;
       if (preconditionedCg(H, b, x)) return x;
     }
     const double scale = std::max(H.diagonal().cwiseAbs().mean(), std::numeric_limits<double>::min());
-    // Far from the minimum (a large rotation) the Hessian stays indefinite for several iterations
-    // and needs about the same shift each time: start a decade below the last one that worked
-    // instead of at 0 (T-bar twist on a random cloud: 14 s of failed factorisations otherwise).
-    double shift = last_shift_ > initial_shift ? 0.1 * last_shift_ : 0.0;
-    for (int attempt = 0; attempt < 14; ++attempt) {
+    // The shift that makes H positive definite is about minus its most negative eigenvalue, which
+    // Lanczos finds from above in a few dozen products: one or two factorisations instead of a
+    // search by decades from 0 (a 30 % compression's first step took 7 factorisations, 48 s).
+    // Ritz values lie above the eigenvalues, so a failed attempt doubles the shift.
+    const double lowest = lowestEigenvalueEstimate(H) / scale;
+    double shift = lowest > 0 ? 0.0 : std::max(initial_shift, -2.0 * lowest);
+    for (int attempt = 0; attempt < 24; ++attempt) {
       Eigen::SparseMatrix<double> shifted = H;
       if (shift > 0) shifted.diagonal().array() += shift * scale;
       factorised_ = factorise(shifted);
+      ++factorisations_;
       if (factorised_) {
         last_shift_ = shift;
         return factorSolve(b);
       }
-      shift = shift == 0.0 ? initial_shift : 10.0 * shift;
+      shift = shift == 0.0 ? std::max(initial_shift, -2.0 * lowest) : 2.0 * shift;
     }
     return b / scale;  // steepest descent as the last resort
   }
 
  private:
   static constexpr int kMaxReuseIterations = 30;
+  static constexpr int kLanczosSteps = 60;
+  static constexpr Eigen::Index kMaxDense = 8000;  // 512 MB as a dense matrix
+  static constexpr double kDenseShare = 0.25;
 
   bool preconditionedCg(const Eigen::SparseMatrix<double>& H, const Eigen::VectorXd& b, Eigen::VectorXd& x) {
     x = Eigen::VectorXd::Zero(b.size());
@@ -92,19 +110,32 @@ class ShiftedCholesky {
     return out;
   }
 
-  // LDL^T of the lower triangle H in the cheaper order; true when positive definite.
+  // Cholesky of the lower triangle H in the cheapest way; true when positive definite. A compact
+  // body (a cube's grid, every node a few cells from every other) fills its sparse factor almost
+  // completely, and Eigen's simplicial LDL^T then runs at a third of the blocked dense Cholesky's
+  // speed (3000 unknowns: 7 s against 2 s) and cannot stop at the first negative pivot of a failed
+  // shift, so a factor denser than kDenseShare of a full one is factorised dense.
   bool factorise(const Eigen::SparseMatrix<double>& H) {
     Eigen::SparseMatrix<double> ordered;
-    if (ordered_) ordered = permuted(H);
     if (!analysed_) {
+      if (ordered_) ordered = permuted(H);
       amd_ldlt_.analyzePattern(H);
+      double sparse_ops = amd_ldlt_.operations();
       if (ordered_) {
         ordered_ldlt_.analyzePattern(ordered);
         ordered_ = ordered_ldlt_.operations() < amd_ldlt_.operations();
+        sparse_ops = std::min(sparse_ops, ordered_ldlt_.operations());
       }
+      const double n = static_cast<double>(H.rows());
+      dense_ = H.rows() <= kMaxDense && sparse_ops > kDenseShare * n * n * n / 3.0;
       analysed_ = true;
     }
+    if (dense_) {
+      dense_llt_.compute(Eigen::MatrixXd(H));
+      return dense_llt_.info() == Eigen::Success;
+    }
     if (ordered_) {
+      if (ordered.size() == 0) ordered = permuted(H);
       ordered_ldlt_.factorize(ordered);
       return ordered_ldlt_.info() == Eigen::Success && ordered_ldlt_.vectorD().minCoeff() > 0;
     }
@@ -113,15 +144,49 @@ class ShiftedCholesky {
   }
 
   Eigen::VectorXd factorSolve(const Eigen::VectorXd& b) const {
+    if (dense_) return dense_llt_.solve(b);
     if (!ordered_) return amd_ldlt_.solve(b);
     return permutation_.transpose() * Eigen::VectorXd(ordered_ldlt_.solve(permutation_ * b));
+  }
+
+  // The smallest Ritz value of the symmetric H (lower triangle) after kLanczosSteps steps of
+  // Lanczos with full reorthogonalisation: an upper bound of its lowest eigenvalue, close to it
+  // when that eigenvalue is well separated (the negative curvature of a compressed or twisted
+  // state). The start vector is a fixed pseudo-random one, so solves repeat exactly.
+  static double lowestEigenvalueEstimate(const Eigen::SparseMatrix<double>& H) {
+    const Eigen::Index n = H.rows(), m = std::min<Eigen::Index>(kLanczosSteps, n);
+    if (n == 0) return 0.0;
+    Eigen::MatrixXd V(n, m);
+    Eigen::VectorXd alpha(m), beta(m);
+    Eigen::VectorXd v(n);
+    for (Eigen::Index i = 0; i < n; ++i) v(i) = std::sin(12.9898 * static_cast<double>(i) + 1.0);
+    v.normalize();
+    Eigen::Index k = 0;
+    while (k < m) {
+      V.col(k) = v;
+      Eigen::VectorXd w = H.selfadjointView<Eigen::Lower>() * v;
+      alpha(k) = v.dot(w);
+      for (int pass = 0; pass < 2; ++pass) w -= V.leftCols(k + 1) * (V.leftCols(k + 1).transpose() * w);
+      beta(k) = w.norm();
+      ++k;
+      if (!(beta(k - 1) > 1e-12 * std::abs(alpha(k - 1)))) break;  // an invariant subspace: exact
+      v = w / beta(k - 1);
+    }
+    Eigen::MatrixXd T = Eigen::MatrixXd::Zero(k, k);
+    for (Eigen::Index i = 0; i < k; ++i) {
+      T(i, i) = alpha(i);
+      if (i + 1 < k) T(i, i + 1) = T(i + 1, i) = beta(i);
+    }
+    return Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(T, Eigen::EigenvaluesOnly).eigenvalues()(0);
   }
 
   CountingLdlt<Eigen::AMDOrdering<int>> amd_ldlt_;
   CountingLdlt<Eigen::NaturalOrdering<int>> ordered_ldlt_;
   Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> permutation_;
-  bool ordered_ = false, analysed_ = false, factorised_ = false;
+  Eigen::LLT<Eigen::MatrixXd, Eigen::Lower> dense_llt_;
+  bool ordered_ = false, analysed_ = false, factorised_ = false, dense_ = false;
   double last_shift_ = 0.0;  // relative to the mean diagonal
+  int factorisations_ = 0;
 };
 
 }  // namespace demnerf::mechanics

@@ -199,7 +199,7 @@ TEST(DemGrid, UnsupportedCombinationsFailBeforeTraining) {
   config.grid.cell = 0.3;  // the particle spacing: too fine for the particle quadrature
   config.grid.quadrature = dm::DemConfig::GridQuadrature::kParticles;
   EXPECT_THROW(dm::DemSolver(cloud, s, config), core::Error);
-  config.grid.cell = 0.2;  // 0.6 particle spacings: finer than the cells' rule takes (0.75)
+  config.grid.cell = 0.15;  // 0.45 particle spacings: finer than the cells' rule takes (0.6)
   config.grid.quadrature = dm::DemConfig::GridQuadrature::kCells;
   EXPECT_THROW(dm::DemSolver(cloud, s, config), core::Error);
   config.grid.cell = 0.4;
