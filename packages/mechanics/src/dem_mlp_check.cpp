@@ -213,7 +213,7 @@ std::string DemSolver::Impl::mlpAdvice() const {
   std::ostringstream text;
   text << "The MLP was trained by " << config.adam.iterations << " Adam steps"
        << (config.lbfgs.iterations > 0 ? " and an L-BFGS polish" : "") << " per load step on " << xv.size(0)
-       << " particles" << (config.boundary.kind == DemConfig::Boundary::kPenalty ? " with the penalty boundary" : "")
+       << " volume particles" << (config.boundary.kind == DemConfig::Boundary::kPenalty ? " with the penalty boundary" : "")
        << ". Likely causes: too few steps for this body and load (raise adam.iterations or lbfgs.iterations), "
           "a penalty weight that lets the fixtures slip (boundary.kind exact), or particles whose midpoint rule "
           "the network exploits (random or NeRF clouds). The feature-grid DEM (--method grid, the default) "

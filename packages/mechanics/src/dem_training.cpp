@@ -48,7 +48,7 @@ std::string DemSolver::Impl::adamPaceAdvice() const {
   if (adam_steps > 0) {
     const double pace = adam_seconds / adam_steps;
     text << " needs about " << pace * config.adam.iterations * steps << " s at the " << 1e3 * pace
-         << " ms a step measured here on " << xv.size(0) << " particles";
+         << " ms a step measured here (wall clock) on " << xv.size(0) << " volume particles";
   }
   text << ". Lower adam.iterations or the load steps, sample fewer particles, raise the limit, or use the "
           "feature-grid DEM (--method grid), which solves by Newton";
