@@ -16,6 +16,7 @@
 //             without / with extended B-splines at 2 particle spacings, with
 //             grid_spacings=2 ext_fill=0.75 levels=1, or body_cells=N: cells from the body's volume)
 //   time_limit=60 (s per cell, SolveControl::time_limit)   mlp_iters=1500 (paper's DEM, per load step)
+//   mlp_lbfgs=0 (L-BFGS iterations after the paper's DEM's Adam, per load step)
 //   fem_div=0 (FEM column's mesh size = smallest dimension / fem_div; 0: the CLI's automatic size)
 //   ref_div=8 conv_div=6 (reference FEM cells: smallest dimension / these)   ref_time_limit=1800
 //   nerf_seconds=60   seed=1   yaml=PATH (with one scenario: solve this YAML instead of
@@ -72,7 +73,7 @@ struct Settings {
   double time_limit = 60.0, ref_time_limit = 1800.0, fem_div = 0.0, nerf_seconds = 60.0;
   double grid_spacings = 2.0, extension_fill = 0.75, body_cells = 0.0;  // the dem_cells / dem_ext columns
   int boundary_levels = 1;
-  int mlp_iters = 1500, ref_div = 8, conv_div = 6, seed = 1;
+  int mlp_iters = 1500, mlp_lbfgs = 0, ref_div = 8, conv_div = 6, seed = 1;
   std::string out, docs, title, yaml;
   bool partial = false;
 };
@@ -95,6 +96,7 @@ Settings parseSettings(int argc, char** argv) {
   s.fem_div = num("fem_div", s.fem_div);
   s.nerf_seconds = num("nerf_seconds", s.nerf_seconds);
   s.mlp_iters = static_cast<int>(num("mlp_iters", s.mlp_iters));
+  s.mlp_lbfgs = static_cast<int>(num("mlp_lbfgs", s.mlp_lbfgs));
   s.ref_div = static_cast<int>(num("ref_div", s.ref_div));
   s.conv_div = static_cast<int>(num("conv_div", s.conv_div));
   s.seed = static_cast<int>(num("seed", s.seed));
@@ -147,6 +149,7 @@ dm::SimulateOptions solverOptions(const std::string& solver, const Settings& s, 
     o.dem.grid.body_cells = 0;
     o.dem.grid.cell = 0;
     o.dem.adam.iterations = s.mlp_iters;
+    o.dem.lbfgs.iterations = s.mlp_lbfgs;
     o.dem.boundary.kind = solver == "dem_mlp" ? dm::DemConfig::Boundary::kPenalty : dm::DemConfig::Boundary::kExact;
   } else {
     throw core::Error("unknown solver column '" + solver + "': use fem, dem, dem_particles, dem_cells, dem_ext, dem_mlp or dem_mlp_exact");

@@ -191,12 +191,14 @@ constexpr double kMlpFixtureMissTolerance = 0.05;
 
 void DemSolver::Impl::checkMlpAnswer(const MlpCheck& check) const {
   std::ostringstream why;
-  if (!(check.correction <= kMlpCorrectionTolerance))
+  // First: an inverted field has no finite energy there, and its residual no meaning.
+  if (!(check.min_J > 0) || !std::isfinite(check.energy))
+    why << "the field inverts the material or is not finite between the particles (det F " << check.min_J
+        << " at the check's quadrature points)";
+  else if (!(check.correction <= kMlpCorrectionTolerance))
     why << "the discrete weak form's residual, " << check.residual << " of the load (energy norm), asks for a "
         << "Newton correction of " << 100 * check.correction << " % of the displacement (rel. L2; allowed "
         << 100 * kMlpCorrectionTolerance << " %) in a B-spline test basis of " << check.cell << " m cells";
-  else if (!(check.min_J > 0))
-    why << "the field inverts the material (det F " << check.min_J << ") between the particles";
   else if (!(check.energy <= check.bound + 1e-9 * energy_scale + 1e-12))
     why << "its potential energy " << check.energy << " J is above the " << check.bound
         << " J of the fixtures' displacement alone, so it is no minimum";
