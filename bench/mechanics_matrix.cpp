@@ -15,7 +15,7 @@
 //             dem_particles: the earlier default DEM; dem_cells, dem_ext: cell quadrature
 //             without / with extended B-splines at 2 particle spacings, with
 //             grid_spacings=2 ext_fill=0.75 levels=1, or body_cells=N: cells from the body's volume)
-//   time_limit=60 (s per cell, SolveControl::time_limit)   mlp_iters=1500 (paper's DEM, per load step)
+//   time_limit=60 (s per cell)   mlp_iters=1500 mlp_lbfgs=0 (paper's DEM: Adam, then L-BFGS, per load step)
 //   fem_div=0 (FEM column's mesh size = smallest dimension / fem_div; 0: the CLI's automatic size)
 //   ref_div=8 conv_div=6 (reference FEM cells: smallest dimension / these)   ref_time_limit=1800
 //   nerf_seconds=60   seed=1   yaml=PATH (with one scenario: solve this YAML instead of
@@ -23,8 +23,7 @@
 //   out=DIR (default output/bench/mechanics_matrix: reference and NeRF caches, CSV/MD/PNG)
 //   docs=DIR (default docs/ for a full run, none for quick=1 or a subset: also write
 //             DIR/mechanics_matrix.{csv,md,png})
-//   config=FILE (the dem column's settings over the defaults, as `demnerf simulate --config FILE`)
-//   rows=SAMPLER/DIV,... (solve cells only on these rows, e.g. random/10; the reference stays on all)
+//   config=FILE (the dem column's settings, as --config)   rows=SAMPLER/DIV,... (cells on these rows only)
 //   quick=1: beam3d, grid sampler, coarsest spacing, exact surface, solvers fem,dem (a smoke run)
 // Prints one line per cell as it finishes and the Markdown table at the end.
 
@@ -75,8 +74,7 @@ struct Settings {
   std::vector<int> divisors;
   double time_limit = 60.0, ref_time_limit = 1800.0, fem_div = 0.0, nerf_seconds = 60.0;
   double grid_spacings = 2.0, extension_fill = 0.75, body_cells = 0.0;  // the dem_cells / dem_ext columns
-  int boundary_levels = 1;
-  int mlp_iters = 1500, ref_div = 8, conv_div = 6, seed = 1;
+  int boundary_levels = 1, mlp_iters = 1500, mlp_lbfgs = 0, ref_div = 8, conv_div = 6, seed = 1;
   std::string out, docs, title, yaml, config;
   std::vector<std::string> rows;
   bool partial = false;
@@ -100,6 +98,7 @@ Settings parseSettings(int argc, char** argv) {
   s.fem_div = num("fem_div", s.fem_div);
   s.nerf_seconds = num("nerf_seconds", s.nerf_seconds);
   s.mlp_iters = static_cast<int>(num("mlp_iters", s.mlp_iters));
+  s.mlp_lbfgs = static_cast<int>(num("mlp_lbfgs", s.mlp_lbfgs));
   s.ref_div = static_cast<int>(num("ref_div", s.ref_div));
   s.conv_div = static_cast<int>(num("conv_div", s.conv_div));
   s.seed = static_cast<int>(num("seed", s.seed));
@@ -155,6 +154,7 @@ dm::SimulateOptions solverOptions(const std::string& solver, const Settings& s, 
     o.dem.grid.body_cells = 0;
     o.dem.grid.cell = 0;
     o.dem.adam.iterations = s.mlp_iters;
+    o.dem.lbfgs.iterations = s.mlp_lbfgs;
     o.dem.boundary.kind = solver == "dem_mlp" ? dm::DemConfig::Boundary::kPenalty : dm::DemConfig::Boundary::kExact;
   } else {
     throw core::Error("unknown solver column '" + solver + "': use fem, dem, dem_particles, dem_cells, dem_ext, dem_mlp or dem_mlp_exact");

@@ -165,6 +165,17 @@ void DemSolver::setScenario(const core::Scenario& scenario) {
   m.fraction = 0.0;
 }
 
+namespace {
+
+SolveError parametricDivergence(const DemConfig& config) {
+  return SolveError(SolveFailure::kInverted, "DEM (parametric): training over load fractions [" +
+                                                 std::to_string(config.parametric.load_range_min) + ", " +
+                                                 std::to_string(config.parametric.load_range_max) +
+                                                 "] inverted particles (det F <= 0) or diverged (NaN); narrow the "
+                                                 "range or lower the learning rate");
+}
+
+}  // namespace
 
 DemReport DemSolver::solve() {
   Impl& m = *impl_;
@@ -174,16 +185,14 @@ DemReport DemSolver::solve() {
   m.clock = std::make_unique<SolveClock>(m.control, "dem");
   m.done_fraction = 0.0;
   m.last_grid = GridNewtonOutcome{};
+  m.adam_seconds = 0.0;
+  m.adam_steps = 0;
   std::vector<Tensor> saved = m.snapshot();
   try {
     if (m.config.parametric.enabled) {
       if (!m.trainParametric(report.iterations)) {
         m.restore(saved);
-        throw SolveError(SolveFailure::kInverted,
-                         "DEM (parametric): training over load fractions [" + std::to_string(m.config.parametric.load_range_min) +
-                             ", " + std::to_string(m.config.parametric.load_range_max) +
-                             "] inverted particles (det F <= 0) or diverged (NaN); narrow the range or lower the "
-                             "learning rate");
+        throw parametricDivergence(m.config);
       }
       report.load_steps = 1;
     } else {
@@ -201,11 +210,12 @@ DemReport DemSolver::solve() {
           },
           "DEM", m.grid ? "" : "Use more load_steps or a smaller load.", m.config.verbose);
     }
-  } catch (const SolveError&) {
+  } catch (const SolveError& e) {
     m.restore(saved);
     m.fraction = m.done_fraction;
     m.clock.reset();
-    throw;
+    if (m.grid || e.failure() != SolveFailure::kTimeLimit) throw;
+    throw SolveError(e.failure(), std::string(e.what()) + ". " + m.adamPaceAdvice());
   } catch (const core::Error& e) {
     // The load stepping gave up: every step size tried inverted, diverged or did not converge.
     m.fraction = m.done_fraction;
@@ -231,8 +241,15 @@ DemReport DemSolver::solve() {
     energy = m.last_grid.energy;
     report.residual = m.last_grid.residual;
     report.min_J = m.last_grid.min_J;
+    if (m.config.verbose) m.mlpEquilibrium(1.0);  // the MLP's check on this answer, for comparison only
   }
   report.energy = energy;
+  if (!m.grid) {
+    // The MLP alone has no Newton whose residual says it converged: its own check (dem_mlp_check.cpp).
+    const Impl::MlpCheck check = m.mlpEquilibrium(1.0);
+    report.residual = check.residual;
+    m.checkMlpAnswer(check);
+  }
   m.checkAnswer(report);
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return report;

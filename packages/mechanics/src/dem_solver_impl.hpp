@@ -5,6 +5,7 @@
 //   dem_energy.cpp     the potential energy on the particles (jittered near fixtures) and the
 //                      output-amplitude line search
 //   dem_grid_solve.cpp the feature grid's quadrature, its Newton solve and the equilibrium checks
+//   dem_mlp_check.cpp  the equilibrium check of the MLP alone (no grid of its own to solve on)
 //   dem_training.cpp   one load step: output-layer Newton, Adam, L-BFGS polish; parametric training
 //   dem_solver.cpp     the public DemSolver: validation, particle sets, load stepping, answers
 
@@ -99,6 +100,30 @@ struct DemSolver::Impl {
   bool solveGrid(double scale, int& iterations);
   std::string gridFailureAdvice() const;
   void checkAnswer(const DemReport& report) const;
+
+  // dem_mlp_check.cpp: the MLP-only DEM's equilibrium check, in the basis of the B-spline grid the
+  // default DEM would build for this body and on that grid's cell quadrature (built at the first
+  // check, kept: the cloud does not change).
+  struct MlpCheck {
+    double residual = 0.0;        // |weak-form residual| / |load| in the check basis, H^-1 norm
+    double euclidean = 0.0;       // ...in the plain norm (reported, not checked)
+    double correction = 0.0;      // the Newton step it implies, rel. L2 of the displacement
+    double energy = 0.0, min_J = 0.0;  // the answer's, on the check quadrature
+    double bound = 0.0;           // energy of the lift alone (0 J without prescribed displacements)
+    double boundary_error = 0.0;  // penalty boundary: largest fixture miss / largest displacement
+    double cell = 0.0;            // the check grid's cell (m)
+  };
+  std::unique_ptr<BsplineGrid> check_grid;
+  std::vector<Eigen::Vector3d> check_points;
+  std::vector<double> check_weights;
+  // Adam's pace in this solve (the time-limit message's estimate of what the schedule needs).
+  double adam_seconds = 0.0;
+  int adam_steps = 0;
+  void buildCheckBasis();
+  MlpCheck mlpEquilibrium(double scale);
+  void checkMlpAnswer(const MlpCheck& check) const;
+  std::string mlpAdvice() const;
+  std::string adamPaceAdvice() const;
 
   // dem_solver.cpp
   struct LoadSizes {

@@ -2,6 +2,7 @@
 // exploit guard), parametric training over a load range, and the progress of a running solve.
 #include <torch/torch.h>
 
+#include <chrono>
 #include <cmath>
 #include <iostream>
 #include <limits>
@@ -36,6 +37,22 @@ void DemSolver::Impl::tick(const char* phase, double scale, int iterations, doub
 
 void DemSolver::Impl::reportProgress(int iterations) const {
   if (progress && progress_every > 0 && iterations % progress_every == 0) progress(iterations);
+}
+
+// Why an MLP solve ran out of time: Adam's schedule at the pace measured in this solve.
+std::string DemSolver::Impl::adamPaceAdvice() const {
+  std::ostringstream text;
+  const int steps = config.parametric.enabled ? 1 : config.load_steps > 0 ? config.load_steps : scenario.load_steps;
+  text << "Likely cause: the MLP's schedule of " << config.adam.iterations << " Adam steps x " << steps
+       << " load step(s)";
+  if (adam_steps > 0) {
+    const double pace = adam_seconds / adam_steps;
+    text << " needs about " << pace * config.adam.iterations * steps << " s at the " << 1e3 * pace
+         << " ms a step measured here (wall clock) on " << xv.size(0) << " volume particles";
+  }
+  text << ". Lower adam.iterations or the load steps, sample fewer particles, raise the limit, or use the "
+          "feature-grid DEM (--method grid), which solves by Newton";
+  return text.str();
 }
 
 bool DemSolver::Impl::newtonEnabled() const {
@@ -148,7 +165,12 @@ bool DemSolver::Impl::runAdam(double scale, int& iterations) {
   const bool newton = newtonEnabled();
   const int n = config.adam.iterations;
   DecayingAdam adam(parameters(), config.adam.learning_rate, config.adam.final_rate_ratio, n);
+  auto last = std::chrono::steady_clock::now();
   for (int it = 0; it < n; ++it) {
+    const auto now = std::chrono::steady_clock::now();
+    adam_seconds += std::chrono::duration<double>(now - last).count();
+    adam_steps += it > 0;
+    last = now;
     if (!newton && !grid && !rescaled && config.adam.rescale_every > 0 && it > 0 && it % config.adam.rescale_every == 0 &&
         it <= config.adam.rescale_until && config.boundary.kind == DemConfig::Boundary::kExact)
       rescaleOutput(scale);

@@ -1,5 +1,6 @@
 #pragma once
-// The unknowns of the feature grid's Newton solve (grid_field_newton.cpp, its only includer):
+// The unknowns of the feature grid's Newton solve (grid_field_newton.cpp) and of the MLP-only
+// DEM's equilibrium check (dem_mlp_check.cpp):
 // the full coefficient vector, or the kept nodes of the extended B-spline basis with the map to
 // the full one. Private to packages/mechanics/src.
 

@@ -190,6 +190,42 @@ double GridFieldEnergy::energy(const Eigen::VectorXd& c, double* strain, double*
   return std::isfinite(total) ? total - work(c) : kInf;
 }
 
+// Per point, the first Piola stress against each basis function's gradient: assembleCell()'s
+// gradient without the stiffness.
+Eigen::VectorXd GridFieldEnergy::gradient(const Eigen::VectorXd& c) const {
+  std::vector<Eigen::VectorXd> parts(threads_);
+  parallelChunks(cells(), threads_, [&](int chunk, long begin, long end) {
+    Eigen::VectorXd& g = parts[chunk];
+    g.setZero(unknowns());
+    for (long q = cell_start_[begin]; q < cell_start_[end]; ++q) {
+      const Eigen::Matrix3d P = pb_.volume[order_[q]] * material_.stress(deformationGradient(c, q));
+      for (int s = 0; s < S_; ++s)
+        if (const long l = local_[nodes_[q * S_ + s]]; l >= 0)
+          for (int i = 0; i < 3; ++i) g(3 * l + i) += P.row(i).dot(grad_phi_[q * S_ + s].row(i));
+    }
+  });
+  Eigen::VectorXd out = -external_;
+  for (const Eigen::VectorXd& g : parts)
+    if (g.size() > 0) out += g;
+  return out;
+}
+
+double GridFieldEnergy::fieldNorm(const Eigen::VectorXd& c, bool offset) const {
+  double sum = 0.0;
+  for (long q = 0; q < static_cast<long>(order_.size()); ++q) {
+    const long p = order_[q];
+    Eigen::Vector3d u = Eigen::Vector3d::Zero();
+    if (offset) {
+      u = pb_.offset[p];
+    } else {
+      for (int s = 0; s < S_; ++s)
+        if (const long l = local_[nodes_[q * S_ + s]]; l >= 0) u += c.segment<3>(3 * l).cwiseProduct(phi_[q * S_ + s]);
+    }
+    sum += pb_.volume[p] * u.squaredNorm();
+  }
+  return std::sqrt(sum);
+}
+
 // Cells are assembled on threads_ threads, each into its own copy of the values and gradient.
 void GridFieldEnergy::derivatives(const Eigen::VectorXd& c, Eigen::VectorXd& gradient,
                                   Eigen::SparseMatrix<double>& hessian) const {

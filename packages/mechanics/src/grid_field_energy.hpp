@@ -1,6 +1,7 @@
 #pragma once
 // The potential energy of the DEM's feature grid problem (grid_field_newton.hpp) in the grid's
-// basis: value, gradient and Hessian, for the grid Newton (grid_field_newton.cpp, its only user).
+// basis: value, gradient and Hessian, for the grid Newton (grid_field_newton.cpp) and the MLP-only
+// DEM's equilibrium check (dem_mlp_check.cpp, gradient only).
 // Private to packages/mechanics/src.
 //
 // Volume points are grouped by grid cell: the points of a cell share their supportSize() nodes, so
@@ -46,8 +47,18 @@ class GridFieldEnergy {
   /// pattern by node; setUnknownMap).
   const std::vector<std::vector<long>>& couplings() const { return neighbours_; }
 
+  /// The gradient alone in the full coefficients at c: no Hessian, no setUnknownMap() needed. The
+  /// MLP-only DEM's equilibrium check (dem_mlp_check.cpp) reads its first-order condition here.
+  Eigen::VectorXd gradient(const Eigen::VectorXd& c) const;
+
+  /// The volume-weighted L2 norm of the grid's share D o N c (m sqrt(m^3)); with `offset`, of the
+  /// offset u_0 instead (c unused).
+  double fieldNorm(const Eigen::VectorXd& c, bool offset = false) const;
+
   double work(const Eigen::VectorXd& c) const { return external_.dot(c) + external_offset_; }
   double externalNorm() const { return external_.norm(); }
+  /// The external forces' work per full coefficient (the load vector).
+  const Eigen::VectorXd& external() const { return external_; }
 
  private:
   /// A cell's stiffness in blocks by component pair, K[i][j](s, t) = d^2 Pi / dc_(s,i) dc_(t,j)

@@ -1,6 +1,6 @@
 #pragma once
-// The feature grid Newton's linear solver (grid_field_newton.cpp, its only includer). Private to
-// packages/mechanics/src.
+// The feature grid Newton's linear solver (grid_field_newton.cpp; dem_mlp_check.cpp measures the
+// MLP's residual with it). Private to packages/mechanics/src.
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>

@@ -122,6 +122,12 @@ TEST(GridFieldEnergy, GradientMatchesFiniteDifferencesOfTheEnergy) {
   const Eigen::VectorXd curvature = (g_plus - g_minus) / (2 * step);
   const Eigen::VectorXd hd = h.selfadjointView<Eigen::Lower>() * direction;
   EXPECT_LT((curvature - hd).norm(), 1e-4 * hd.norm());
+  // The gradient alone (the MLP-only DEM's equilibrium check) is the same vector, with or without
+  // an unknown map, on any thread count.
+  for (int threads : {1, 3}) {
+    const GridFieldEnergy plain(slab.problem, material, slab.grid, threads);
+    EXPECT_LT((plain.gradient(c) - g).norm(), 1e-12 * g.norm()) << threads << " threads";
+  }
 }
 
 TEST(GridFieldEnergy, DerivativesBeforeTheUnknownMapAreRefused) {

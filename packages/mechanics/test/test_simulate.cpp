@@ -168,11 +168,12 @@ TEST(Simulate, FemMeshesFromTheBodyReportsAndStopsOnTime) {
 }
 
 TEST(Simulate, DemGivesOneRowPerParticleInOrder) {
-  const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(3, 3, 3));
+  const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(6, 6, 6));
   dm::SimulateOptions options;
   options.dem.network.width = 8;
   options.dem.network.depth = 1;
-  options.dem.adam.iterations = 30;
+  options.dem.adam.iterations = 0;
+  options.dem.output_newton.enabled = true;  // a Ritz solve in the network's basis: converged at once
   options.dem.grid.body_cells = 0.0;  // the MLP alone (DemConfig's default is the feature-grid DEM)
   options.dem.threads = 1;
   const dm::SimulationOutcome out = dm::simulate(cloud, uniaxial(1e5, 1.0), dm::SolverChoice::kDem, options);

@@ -145,7 +145,8 @@ struct DemReport {
   int load_steps = 0;         ///< load steps taken, halvings included
   double output_scale = 0.0;  ///< displacement scale of the network output after rescaling (m)
   /// |discrete weak-form residual| / |load| at the answer: the grid Newton's gradient in the grid
-  /// coefficients (NaN without a feature grid: an MLP is never at a stationary point of its loss).
+  /// coefficients; without a feature grid, the MLP's residual in the B-spline test basis of its
+  /// equilibrium check (energy norm; dem_mlp_check.cpp, docs/dem_feature_grid.md).
   double residual = 0.0;
   bool polish_rejected = false;  ///< an L-BFGS polish was undone (exploit guard)
 };
