@@ -73,6 +73,7 @@ Figures runSimulate(const Arguments& arguments) {
   mechanics::SimulationOutcome outcome;
   try {
     outcome = mechanics::simulate(cloud, scenario, solver, options);
+    if (!outcome.unverified.empty()) std::cerr << "demnerf simulate: warning: not verified: " << outcome.unverified << "\n";
   } catch (const mechanics::SolveError& error) {
     // One line that names the cause (exit 1): scripts can tell a time limit from a divergence.
     std::string message = error.what();

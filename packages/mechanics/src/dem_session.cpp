@@ -89,7 +89,9 @@ DemSessionAnswer DemSession::answer(const core::Scenario& scenario, const SolveC
         solver_ = std::make_unique<DemSolver>(*cloud_, scenario, config_);
       }
       solver_->setControl(control);
-      answer.outcome.energy = solver_->solve().energy;
+      const DemReport report = solver_->solve();
+      answer.outcome.energy = report.energy;
+      unverified_ = report.unverified;
       answer.outcome.field = solver_->result();
       trained_ = scenario;
     } catch (...) {
@@ -100,6 +102,7 @@ DemSessionAnswer DemSession::answer(const core::Scenario& scenario, const SolveC
   for (const auto& u : answer.outcome.field.displacements)
     answer.outcome.max_displacement = std::max(answer.outcome.max_displacement, u.norm());
   answer.outcome.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  answer.unverified = unverified_;
   return answer;
 }
 

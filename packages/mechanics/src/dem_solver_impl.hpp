@@ -122,6 +122,9 @@ struct DemSolver::Impl {
   void buildCheckBasis();
   MlpCheck mlpEquilibrium(double scale);
   void checkMlpAnswer(const MlpCheck& check) const;
+  /// The MLP's check on the answer at full load: a failure is thrown, or in parametric mode noted
+  /// in report.unverified (its training over a load range is not refused, but said unverified).
+  void verifyMlpAnswer(DemReport& report);
   std::string mlpAdvice() const;
   std::string adamPaceAdvice() const;
 

@@ -97,7 +97,9 @@ void solveDem(const core::ParticleCloud& cloud, const core::Scenario& scenario, 
               SimulationOutcome& out) {
   DemSolver dem(cloud, scenario, options.dem);
   dem.setControl(options.control);
-  out.energy = dem.solve().energy;
+  const DemReport report = dem.solve();
+  out.energy = report.energy;
+  out.unverified = report.unverified;
   out.field = dem.result();
   if (!options.dem_model_path.empty()) saveDemModel(dem, options.dem_model_path);
 }

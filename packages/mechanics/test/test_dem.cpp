@@ -302,9 +302,10 @@ TEST(Dem, SavedModelsPredictExactlyAsBeforeAndDamageIsReported) {
   const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(4, 4, 4));
   const dm::DemConfig config = dm::test::parametricMlp(8, 50, 1.5);
   dm::DemSolver dem(cloud, uniaxial(1e5), config);
-  // 50 steps are no equilibrium (the check refuses them), but the trained field is kept: saving
-  // and loading must reproduce it all the same.
-  EXPECT_THROW(dem.solve(), dm::SolveError);
+  // 50 steps are no equilibrium: a parametric training is kept but said unverified (its answers
+  // are used by dem_node's instant path), and saving and loading must reproduce it all the same.
+  const dm::DemReport report = dem.solve();
+  EXPECT_NE(report.unverified.find("not an equilibrium"), std::string::npos) << report.unverified;
   const std::string path = ::testing::TempDir() + "dem_model_" + std::to_string(::getpid()) + ".dem";
   dm::saveDemModel(dem, path);
   const dm::DemSolver loaded = dm::loadDemModel(path);

@@ -110,6 +110,10 @@ demnerf::mechanics::SimulationOutcome DemNode::solveWithSession(const SolveJob& 
                                : answer.mode == "warm" ? dem_nerf::SolveAnswer::WARM
                                                        : dem_nerf::SolveAnswer::COLD;
   if (instant) report.figures.load_scale = answer.load_scale;
+  if (!answer.unverified.empty()) {
+    report.how += " (not verified as an equilibrium)";
+    ROS_WARN_THROTTLE(10.0, "dem_node: parametric DEM answer not verified: %s", answer.unverified.c_str());
+  }
   return answer.outcome;
 }
 

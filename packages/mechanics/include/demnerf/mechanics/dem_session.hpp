@@ -22,6 +22,9 @@ struct DemSessionAnswer {
   SimulationOutcome outcome;
   std::string mode;
   double load_scale = 1.0;  ///< instant answers: the factor s relative to the trained load case
+  /// Parametric mode: why the trained answer failed its equilibrium check (DemReport::unverified);
+  /// instant answers scale that training and inherit it.
+  std::string unverified;
 };
 
 /// The factor s with `scaled` = s x `reference` in every load, body force and prescribed
@@ -48,6 +51,7 @@ class DemSession {
   std::optional<core::ParticleCloud> cloud_;
   std::unique_ptr<DemSolver> solver_;
   core::Scenario trained_;  ///< the load case the network was trained for
+  std::string unverified_;  ///< its training's failed equilibrium check (parametric), if any
 };
 
 }  // namespace demnerf::mechanics

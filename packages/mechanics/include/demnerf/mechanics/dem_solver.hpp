@@ -148,6 +148,9 @@ struct DemReport {
   /// coefficients; without a feature grid, the MLP's residual in the B-spline test basis of its
   /// equilibrium check (energy norm; dem_mlp_check.cpp, docs/dem_feature_grid.md).
   double residual = 0.0;
+  /// Parametric mode only: why its answer at the trained load failed the MLP's equilibrium check
+  /// (empty: it passed). Its answers are kept and used, and this says they are not verified.
+  std::string unverified;
   bool polish_rejected = false;  ///< an L-BFGS polish was undone (exploit guard)
 };
 

@@ -62,6 +62,7 @@ struct SimulationOutcome {
   int mesh_nodes = 0;             ///< FEM only
   int mesh_elements = 0;          ///< FEM only
   double mesh_cell = 0.0;         ///< FEM only: the cell (target edge) the mesh was made with (m)
+  std::string unverified;         ///< parametric DEM only: why it failed its equilibrium check (DemReport)
   /// FEM with options.keep_fem_mesh only; shared so that copies of the outcome stay cheap.
   std::shared_ptr<const FemMeshSolution> fem_mesh;
 };
