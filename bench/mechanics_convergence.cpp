@@ -19,7 +19,7 @@
 
 #include "demnerf/core/ply.hpp"
 #include "demnerf/core/scenario.hpp"
-#include "demnerf/mechanics/allocator.hpp"
+#include "demnerf/mechanics/process_settings.hpp"
 #include "demnerf/mechanics/box_particles.hpp"
 #include "demnerf/mechanics/dem_solver.hpp"
 #include "demnerf/mechanics/material.hpp"

@@ -42,7 +42,7 @@
 #include "demnerf/core/ply.hpp"
 #include "demnerf/core/scenario.hpp"
 #include "demnerf/geometry/particle_sampler.hpp"
-#include "demnerf/mechanics/allocator.hpp"
+#include "demnerf/mechanics/process_settings.hpp"
 #include "demnerf/mechanics/compare_results.hpp"
 #include "demnerf/mechanics/simulate.hpp"
 #include "demnerf/mechanics/solve_control.hpp"

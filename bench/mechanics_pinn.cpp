@@ -22,7 +22,7 @@
 #include "demnerf/core/error.hpp"
 #include "demnerf/core/ply.hpp"
 #include "demnerf/core/scenario.hpp"
-#include "demnerf/mechanics/allocator.hpp"
+#include "demnerf/mechanics/process_settings.hpp"
 #include "demnerf/mechanics/box_particles.hpp"
 #include "demnerf/mechanics/material.hpp"
 #include "demnerf/mechanics/pinn_solver.hpp"

@@ -13,7 +13,7 @@
 
 #include "demnerf/core/scenario.hpp"
 #include "mechanics_bench_common.hpp"
-#include "demnerf/mechanics/allocator.hpp"
+#include "demnerf/mechanics/process_settings.hpp"
 #include "demnerf/mechanics/box_particles.hpp"
 #include "demnerf/mechanics/dem_solver.hpp"
 #include "demnerf/mechanics/fem_solver.hpp"

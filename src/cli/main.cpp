@@ -60,7 +60,7 @@ int main(int argc, char** argv) {
       return 0;
     }
     // --threads where a command takes it (0: all cores); simulate and train refine it from their configs.
-    dem_nerf::configureRuntime({arguments.has("threads") ? arguments.integer("threads", 0) : 0, false});
+    dem_nerf::configureRuntime({arguments.integer("threads", 0), false});
     const Figures figures = command->run(arguments);
     printFigures(figures, arguments.flag("json"));
     return 0;

@@ -15,7 +15,7 @@
 #include "demnerf/core/ply.hpp"
 #include "demnerf/core/scenario.hpp"
 #include "demnerf/mechanics/simulate.hpp"
-#include "demnerf/mechanics/allocator.hpp"
+#include "demnerf/mechanics/process_settings.hpp"
 #include "demnerf/mechanics/solver_config_yaml.hpp"
 #include "demnerf/vtk_export/vtu_writer.hpp"
 

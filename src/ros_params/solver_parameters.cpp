@@ -50,8 +50,10 @@ dm::SimulateOptions read(const Node& node) {
   dm::SimulateOptions options = presetFileAndNamespaces(node);
   dm::DemChoice choice;
   applyLiveStartupValues(node, options, choice);
-  readCount(node, "threads", options.dem.threads, 0);
-  options.pinn.threads = options.dem.threads;
+  if (node.hasParam("threads")) {  // else the file's (or default) dem.threads and pinn.threads stand
+    readCount(node, "threads", options.dem.threads, 0);
+    options.pinn.threads = options.dem.threads;
+  }
   try {
     options.dem = dm::normalised(options.dem, choice);  // the rules `demnerf simulate` applies to its flags
   } catch (const Error& error) {

@@ -99,11 +99,7 @@ bool DemSolver::Impl::solveGrid(double scale, int& iterations) {
   // Offset: everything but the grid (the lift and the MLP's share).
   const auto [u0, gu0] = displacement(gq_x, gq_lift_t, true, scale, nullptr, false);
   pb.offset = torch_support::toVectors(u0);
-  const Tensor g = gu0.to(torch::kFloat64).contiguous();
-  const double* pg = g.data_ptr<double>();
-  pb.grad_offset.resize(gq_points.size());
-  for (std::size_t p = 0; p < gq_points.size(); ++p)
-    pb.grad_offset[p] = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(pg + 9 * p);
+  pb.grad_offset = torch_support::toMatrices(gu0);
   if (xs.size(0) > 0) {
     pb.surface_points = torch_support::toVectors(xs);
     pb.surface_offset = torch_support::toVectors(displacement(xs, lift_s, false, scale, nullptr, false).first);

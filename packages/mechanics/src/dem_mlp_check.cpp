@@ -31,15 +31,6 @@ using torch_support::toTensor;
 
 namespace {
 
-std::vector<Eigen::Matrix3d> toMatrices(const Tensor& t) {
-  const Tensor c = t.to(torch::kFloat64).contiguous();
-  const double* p = c.data_ptr<double>();
-  std::vector<Eigen::Matrix3d> out(static_cast<std::size_t>(c.size(0)));
-  for (std::size_t i = 0; i < out.size(); ++i)
-    out[i] = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(p + 9 * i);
-  return out;
-}
-
 std::vector<Eigen::Vector3d> scaled(const std::vector<Eigen::Vector3d>& v, double s) {
   std::vector<Eigen::Vector3d> out(v.size());
   for (std::size_t i = 0; i < v.size(); ++i) out[i] = s * v[i];
@@ -144,7 +135,7 @@ DemSolver::Impl::MlpCheck DemSolver::Impl::mlpEquilibrium(double scale) {
                             toTensor(lift.grad_D, dtype)};
   const auto [u, grad_u] = displacement(toTensor(check_points, dtype), lifted, true, scale);
   answer.offset = torch_support::toVectors(u);
-  answer.grad_offset = toMatrices(grad_u);
+  answer.grad_offset = torch_support::toMatrices(grad_u);
   if (xs.size(0) > 0) {
     answer.surface_points = torch_support::toVectors(xs);
     answer.surface_offset = torch_support::toVectors(displacement(xs, lift_s, false, scale).first);

@@ -6,7 +6,6 @@
 
 #include <torch/torch.h>
 
-#include <dlfcn.h>
 
 #include <Eigen/Core>
 #include <algorithm>
@@ -16,6 +15,7 @@
 #include <vector>
 
 #include "demnerf/core/ply.hpp"
+#include "demnerf/mechanics/process_settings.hpp"
 
 #include "demnerf/mechanics/material.hpp"
 
@@ -52,6 +52,16 @@ inline std::vector<Eigen::Vector3d> toVectors(const Tensor& t) {
   const double* p = d.data_ptr<double>();
   std::vector<Eigen::Vector3d> out(static_cast<std::size_t>(d.size(0)));
   for (std::size_t i = 0; i < out.size(); ++i) out[i] = Eigen::Vector3d(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
+  return out;
+}
+
+/// The inverse of toTensor(vector<Matrix3d>): an (n, 3, 3) tensor as row-major 3x3 matrices.
+inline std::vector<Eigen::Matrix3d> toMatrices(const Tensor& t) {
+  const Tensor d = t.to(torch::kFloat64).contiguous();
+  const double* p = d.data_ptr<double>();
+  std::vector<Eigen::Matrix3d> out(static_cast<std::size_t>(d.size(0)));
+  for (std::size_t i = 0; i < out.size(); ++i)
+    out[i] = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(p + 9 * i);
   return out;
 }
 
@@ -107,14 +117,6 @@ inline BodyBox bodyBox(const core::ParticleCloud& cloud) {
   return {0.5 * (lo + hi), (0.5 * (hi - lo)).cwiseMax(1e-9 * (hi - lo).norm() + 1e-12), (hi - lo).maxCoeff()};
 }
 
-/// Torch's CPU matmuls go to the system BLAS (OpenBLAS on Debian), whose own thread pool ignores
-/// at::set_num_threads; its spinning workers made a T-bar step 1.8x slower on a loaded 2-core
-/// machine. Set through dlsym so a build against another BLAS still links.
-inline void setBlasThreads(int threads) {
-  using SetThreads = void (*)(int);
-  if (auto f = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) f(threads);
-}
-
 /// Torch and BLAS threads for a solve, set on the solving thread when it starts (not in a
 /// constructor): `threads` when > 0, else one thread below 50k particles (fastest for
 /// product-size clouds on shared 2-core machines) and every core above, where the threads'
@@ -124,7 +126,7 @@ inline void setSolverThreads(int threads, std::size_t particles) {
                 : particles < 50000 ? 1
                                     : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   at::set_num_threads(n);
-  setBlasThreads(n);
+  mechanics::setBlasThreads(n);
 }
 
 }  // namespace demnerf::mechanics::torch_support

@@ -1,0 +1,18 @@
+#pragma once
+// Process-wide settings the DEM and the PINN run faster with. The library applies none of them
+// behind its caller's back: entry points do (dem_nerf::configureRuntime in the nodes and the CLI,
+// the benchmarks' mains), except the solvers' own thread count for the length of a solve.
+
+namespace demnerf::mechanics {
+
+/// Every Adam step allocates and frees the same few-MB tensors; glibc serves blocks above its
+/// mmap threshold with fresh zeroed pages each time (page faults were ~15 % of a step). Raising
+/// the mmap and trim thresholds keeps them in the heap, which halves the step time at T-bar sizes.
+void keepLargeAllocationsInHeap();
+
+/// Torch's CPU matmuls go to the system BLAS (OpenBLAS on Debian), whose own thread pool ignores
+/// at::set_num_threads; its spinning workers made a T-bar step 1.8x slower on a loaded 2-core
+/// machine. Found through dlsym so a build against another BLAS still links (then a no-op).
+void setBlasThreads(int threads);
+
+}  // namespace demnerf::mechanics

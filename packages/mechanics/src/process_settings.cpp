@@ -1,0 +1,18 @@
+#include "demnerf/mechanics/process_settings.hpp"
+
+#include <dlfcn.h>
+#include <malloc.h>
+
+namespace demnerf::mechanics {
+
+void keepLargeAllocationsInHeap() {
+  mallopt(M_MMAP_THRESHOLD, 512 * 1024 * 1024);
+  mallopt(M_TRIM_THRESHOLD, 1024 * 1024 * 1024);
+}
+
+void setBlasThreads(int threads) {
+  using SetThreads = void (*)(int);
+  if (auto f = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) f(threads);
+}
+
+}  // namespace demnerf::mechanics
