@@ -44,7 +44,10 @@ double medianParticleEdge(const core::ParticleCloud& cloud) {
 
 /// The voxel (or CGAL) cell of an automatic FEM mesh: from the body and the accuracy asked for,
 /// not from how finely it was sampled. Voxels of particles are a whole number of the particles'
-/// own cells (no finer: empty cells would be holes), so a grid-sampled body keeps its faces.
+/// own cells (no finer: empty cells would be holes), so a grid-sampled body keeps its faces; over
+/// a cloud that is no lattice, at least two, which the particles fill to half on any sampler.
+/// One-spacing voxels of a Poisson cloud can meet only at an edge, a hinge on which Newton
+/// stalled (the NeRF's sparse particles in the dem_node_render rostest, one run in five).
 VoxelMeshConfig femVoxels(const core::ParticleCloud& cloud, const SimulateOptions& options) {
   VoxelMeshConfig voxel = options.voxel;
   if (voxel.cell != 0.0) return voxel;
@@ -52,7 +55,8 @@ VoxelMeshConfig femVoxels(const core::ParticleCloud& cloud, const SimulateOption
   voxel.cell = automaticCell(body, MeshSizeRule{voxel.elements_across, voxel.max_dofs, voxel.order});
   if (!options.surface) {
     const double spacing = medianParticleEdge(cloud);
-    if (spacing > 0.0) voxel.cell = spacing * std::max(1.0, std::round(voxel.cell / spacing));
+    const double fewest = particlesFormALattice(cloud) ? 1.0 : 2.0;
+    if (spacing > 0.0) voxel.cell = spacing * std::max(fewest, std::round(voxel.cell / spacing));
   }
   return voxel;
 }

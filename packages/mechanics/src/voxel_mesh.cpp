@@ -1,7 +1,9 @@
 #include "demnerf/mechanics/voxel_mesh.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <set>
 #include <unordered_map>
 
 #include "demnerf/core/error.hpp"
@@ -170,6 +172,28 @@ TetMesh voxelMeshFromParticles(const core::ParticleCloud& cloud, const VoxelMesh
   for (std::size_t k = 0; k < filled.size(); ++k)
     active[k] = coarse ? filled[k] >= 0.5 * cell * cell * cell : filled[k] > 0.0;
   return tetsFromCells(lower, Eigen::Vector3d::Constant(cell), dims, active, config.order);
+}
+
+bool particlesFormALattice(const core::ParticleCloud& cloud) {
+  std::vector<double> volumes;
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300);
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    if (cloud.volumes[i] > 0) {
+      volumes.push_back(cloud.volumes[i]);
+      lo = lo.cwiseMin(cloud.positions[i]);
+    }
+  if (volumes.empty()) return false;
+  std::nth_element(volumes.begin(), volumes.begin() + volumes.size() / 2, volumes.end());
+  const double spacing = std::cbrt(volumes[volumes.size() / 2]);
+  const Eigen::Vector3d lower = lo - Eigen::Vector3d::Constant(0.5 * spacing);
+  std::set<std::array<long, 3>> cells;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    if (!(cloud.volumes[i] > 0)) continue;
+    const Eigen::Vector3d c = ((cloud.positions[i] - lower) / spacing).array().floor();
+    cells.insert({static_cast<long>(c(0)), static_cast<long>(c(1)), static_cast<long>(c(2))});
+  }
+  // A lattice puts one particle in each cell; a Poisson cloud leaves about a third of them empty.
+  return static_cast<double>(cells.size()) >= 0.95 * static_cast<double>(volumes.size());
 }
 
 }  // namespace demnerf::mechanics

@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -165,6 +166,39 @@ TEST(Simulate, FemMeshesFromTheBodyReportsAndStopsOnTime) {
   } catch (const dm::SolveError& e) {
     EXPECT_EQ(e.failure(), dm::SolveFailure::kTimeLimit) << e.what();
   }
+}
+
+// Automatic FEM voxels over particles: one spacing on a lattice, two on a random cloud, whose
+// one-spacing cells are a third empty (holes, and voxels meeting only at an edge).
+TEST(Simulate, FemVoxelsOverARandomCloudSpanTwoSpacings) {
+  const core::ParticleCloud grid = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(2, 1, 1), Eigen::Vector3i(8, 4, 4));
+  EXPECT_TRUE(dm::particlesFormALattice(grid));
+  core::ParticleCloud random = grid;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (Vector3d& x : random.positions) x = Vector3d(2 * unit(rng), unit(rng), unit(rng));
+  EXPECT_FALSE(dm::particlesFormALattice(random));
+  core::Scenario s;
+  s.name = "pulled_block";
+  s.material.youngs_modulus = 1e6;
+  s.material.poisson_ratio = 0.3;
+  core::Fixture clamp;
+  clamp.name = "clamp";
+  clamp.region = box(Vector3d(0, 0.5, 0.5), Vector3d(0.8, 2, 2));
+  s.fixtures = {clamp};
+  core::Load pull;
+  pull.name = "pull";
+  pull.region = box(Vector3d(2, 0.5, 0.5), Vector3d(0.8, 2, 2));
+  pull.force = Vector3d(1e3, 0, 0);
+  s.loads = {pull};
+  dm::SimulateOptions options;
+  options.voxel.order = 1;
+  // The body's rule asks for 1/6 m cells: a whole number of the 0.25 m spacing, at least two here.
+  const dm::SimulationOutcome on_random = dm::simulate(random, s, dm::SolverChoice::kFem, options);
+  EXPECT_NEAR(on_random.mesh_cell, 0.5, 1e-9);
+  EXPECT_LT(on_random.energy, 0.0);
+  const dm::SimulationOutcome on_grid = dm::simulate(grid, s, dm::SolverChoice::kFem, options);
+  EXPECT_NEAR(on_grid.mesh_cell, 0.25, 1e-9);
 }
 
 TEST(Simulate, DemGivesOneRowPerParticleInOrder) {

@@ -42,6 +42,11 @@ TetMesh voxelMeshFromSurface(const core::TriangleMesh& mesh, const VoxelMeshConf
 /// half theirs, so a multiple of a grid cloud's spacing keeps its faces.
 TetMesh voxelMeshFromParticles(const core::ParticleCloud& cloud, const VoxelMeshConfig& config);
 
+/// Whether the particles with volume form a lattice: each cell of voxelMeshFromParticles's
+/// one-spacing grid holds one of them (a grid sampler's cloud). Over a random or Poisson cloud
+/// many such cells are empty, so one-spacing voxels leave holes and hinges.
+bool particlesFormALattice(const core::ParticleCloud& cloud);
+
 /// Whether `point` lies inside the closed surface (parity of crossings of a ray along +x).
 bool insideSurface(const core::TriangleMesh& mesh, const Eigen::Vector3d& point);
 
