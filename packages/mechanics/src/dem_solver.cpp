@@ -84,7 +84,7 @@ void DemSolver::Impl::orderBandLast(std::vector<long>& volume_particles) {
 // traction particles, fixed particles, the lift at each, and the grid supports and quadrature.
 DemSolver::Impl::LoadSizes DemSolver::Impl::setParticleSets() {
   const auto traction = particleTractions(scenario, cloud);
-  const Dirichlet fixed = resolveFixtures(scenario, cloud.positions);
+  const Dirichlet fixed = resolveHeldParticles(scenario, cloud, held);
   const DirichletLift lift = dirichletLift(scenario, cloud.positions, length, &held);
   // Jittered cells are sampled over their whole volume, which already covers the strip between the
   // outer particle layer and the surface: they keep their own volume (moving a share to surface

@@ -62,4 +62,10 @@ std::vector<int> heldMeshNodes(const core::Region& region, const TetMesh& mesh, 
 /// The FEM's Dirichlet nodes: resolveFixtures with heldMeshNodes choosing each fixture's nodes.
 Dirichlet resolveMeshFixtures(const core::Scenario& scenario, const TetMesh& mesh);
 
+/// The particles a fixture holds, for the solvers that constrain particles rather than a lift
+/// (the DEM's penalty boundary, the PINN): a face holds its cluster's surface particles inside the
+/// region, a volume every particle inside it.
+Dirichlet resolveHeldParticles(const core::Scenario& scenario, const core::ParticleCloud& cloud,
+                               const std::vector<HeldFace>& held);
+
 }  // namespace demnerf::mechanics
