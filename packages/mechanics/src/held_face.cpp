@@ -98,7 +98,7 @@ HeldFace fitHeldFace(const core::Region& region, const std::vector<Eigen::Vector
   HeldFace face;
   if (region.type != core::Region::Type::kBox || points.empty()) return face;
   const FaceCluster cluster = dominantFace(normals, areas);
-  if (cluster.share < kFaceAreaShare) return face;
+  if (!(cluster.share > kFaceAreaShare)) return face;  // two opposite sides of a plate never make a face
   double area = 0.0;
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
   for (std::size_t i = 0; i < points.size(); ++i)
@@ -254,12 +254,16 @@ Dirichlet resolveHeldParticles(const core::Scenario& scenario, const core::Parti
       [&](std::size_t f) {
         const core::Region& region = scenario.fixtures[f].region;
         const bool face = f < held.size() && held[f].valid;
+        const double tiny = 1e-9 * region.size.maxCoeff();
         std::vector<int> out;
         for (std::size_t i = 0; i < cloud.size(); ++i) {
           if (!region.contains(cloud.positions[i])) continue;
-          // A face holds its own surface particles: those whose normals join it.
-          if (face && !(cloud.isSurface(i) && cloud.normals[i].dot(held[f].normal) >=
-                                                  kFaceNormalCosine * cloud.normals[i].norm()))
+          // A face holds its own surface particles: those whose normals join it, and those on its
+          // plane (a lattice's corner particles, whose normals lean 55 degrees off it).
+          Eigen::Vector3d unused;
+          if (face && !(cloud.isSurface(i) && (cloud.normals[i].dot(held[f].normal) >=
+                                                   kFaceNormalCosine * cloud.normals[i].norm() ||
+                                               heldFaceDistance(held[f], cloud.positions[i], unused) <= tiny)))
             continue;
           out.push_back(static_cast<int>(i));
         }

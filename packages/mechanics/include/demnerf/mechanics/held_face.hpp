@@ -21,7 +21,7 @@ namespace demnerf::mechanics {
 /// Samples of a surface patch count as one face when their outward normals lie within this
 /// cosine of the face's normal (45 degrees: a box's side at 90 degrees never joins its end).
 constexpr double kFaceNormalCosine = 0.7;
-/// A face must carry at least this share of the patch's area, else the region's volume is held.
+/// A face must carry more than this share of the patch's area, else the region's volume is held.
 constexpr double kFaceAreaShare = 0.5;
 
 /// The face a fixture holds; `valid` false means the fixture holds its region's volume.
@@ -42,7 +42,7 @@ FaceCluster dominantFace(const std::vector<Eigen::Vector3d>& normals, const std:
 
 /// The held face of `region` from surface samples (points, unit outward normals, areas), all of
 /// which the caller has found inside the region. Invalid for non-box regions, for no samples,
-/// and when the dominant cluster holds less than kFaceAreaShare of the area.
+/// and when the dominant cluster holds no more than kFaceAreaShare of the area.
 HeldFace fitHeldFace(const core::Region& region, const std::vector<Eigen::Vector3d>& points,
                      const std::vector<Eigen::Vector3d>& normals, const std::vector<double>& areas);
 
