@@ -80,6 +80,12 @@ TEST(HeldFace, AThickBandHoldsTheFaceAndFreesTheBand) {
   EXPECT_NEAR(liftD(Vector3d(0.003, 0.1, 0.05), &held)(1), 0.003 / length, 1e-12);
   // The volume meaning (no faces) pins the whole band.
   EXPECT_EQ(liftD(Vector3d(0.003, 0.05, 0.05), nullptr).norm(), 0.0);
+  // The penalty DEM and the PINN hold the face's 100 surface particles, not the 240 particles in
+  // the band (those plus the 40 side particles and 100 interior ones at x = 5 mm).
+  EXPECT_EQ(dm::resolveFixtures(s, cloud.positions).index.size(), 240u);
+  const dm::Dirichlet particles = dm::resolveHeldParticles(s, cloud, held);
+  EXPECT_EQ(particles.index.size(), 100u);
+  for (int i : particles.index) EXPECT_EQ(cloud.positions[i].x(), 0.0);
   // D's gradient inside the band (where the old distance was flat) is the face's normal direction.
   const Vector3d x(0.004, 0.03, 0.07);
   liftD(x, &held);
