@@ -45,7 +45,7 @@ void DemSolver::Impl::jitterBand(Tensor& x, Tensor (&lift)[4]) const {
     if (band_jitter[i] > 0) p += band_jitter[i] * Eigen::Vector3d(u01(rng), u01(rng), u01(rng));
     for (int c = 0; c < 3; ++c) px[3 * i + c] = p(c);
     if (!exact) continue;
-    dirichletLiftAt(scenario, p, length, g, gg, D, gD);
+    dirichletLiftAt(scenario, p, length, g, gg, D, gD, &held);
     for (int r = 0; r < 3; ++r) {
       pg[3 * i + r] = g(r);
       pd[3 * i + r] = D(r);

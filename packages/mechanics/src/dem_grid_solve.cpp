@@ -36,7 +36,7 @@ void DemSolver::Impl::buildGridQuadrature() {
   } else {
     buildParticleGridQuadrature();
   }
-  gq_lift = dirichletLift(scenario, gq_points, length);
+  gq_lift = dirichletLift(scenario, gq_points, length, &held);
   gq_x = toTensor(gq_points, dtype);
   gq_lift_t[0] = toTensor(gq_lift.g, dtype);
   gq_lift_t[1] = toTensor(gq_lift.grad_g, dtype);

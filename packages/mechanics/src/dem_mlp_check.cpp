@@ -124,7 +124,7 @@ DemSolver::Impl::MlpCheck DemSolver::Impl::mlpEquilibrium(double scale) {
   buildCheckBasis();
   MlpCheck out;
   out.cell = check_grid->cell();
-  const DirichletLift lift = dirichletLift(scenario, check_points, length);
+  const DirichletLift lift = dirichletLift(scenario, check_points, length, &held);
   GridFieldProblem answer;
   answer.points = check_points;
   answer.volume = check_weights;

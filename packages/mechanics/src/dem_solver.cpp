@@ -84,8 +84,8 @@ void DemSolver::Impl::orderBandLast(std::vector<long>& volume_particles) {
 // traction particles, fixed particles, the lift at each, and the grid supports and quadrature.
 DemSolver::Impl::LoadSizes DemSolver::Impl::setParticleSets() {
   const auto traction = particleTractions(scenario, cloud);
-  const Dirichlet fixed = resolveFixtures(scenario, cloud.positions);
-  const DirichletLift lift = dirichletLift(scenario, cloud.positions, length);
+  const Dirichlet fixed = resolveHeldParticles(scenario, cloud, held);
+  const DirichletLift lift = dirichletLift(scenario, cloud.positions, length, &held);
   // Jittered cells are sampled over their whole volume, which already covers the strip between the
   // outer particle layer and the surface: they keep their own volume (moving a share to surface
   // points would under-weight that strip and reopen a cheaper-than-physical surface layer; measured
@@ -148,6 +148,7 @@ void DemSolver::setScenario(const core::Scenario& scenario) {
   Impl& m = *impl_;
   validateProblem(scenario, m.cloud);
   m.scenario = scenario;
+  m.held = heldFaces(scenario, m.cloud);
   m.material = makeMaterial(scenario.material);
   const Impl::LoadSizes sizes = m.setParticleSets();
   // Scales: the network outputs O(1) for the expected displacement, and the loss is O(1) at the
@@ -264,7 +265,7 @@ std::vector<Eigen::Vector3d> DemSolver::predict(const std::vector<Eigen::Vector3
   const Tensor x = toTensor(points, m.dtype);
   Tensor u;
   if (m.config.boundary.kind == DemConfig::Boundary::kExact) {
-    const DirichletLift lift = dirichletLift(m.scenario, points, m.length);
+    const DirichletLift lift = dirichletLift(m.scenario, points, m.length, &m.held);
     const Tensor parts[4] = {toTensor(lift.g, m.dtype), Tensor(), toTensor(lift.D, m.dtype), Tensor()};
     u = m.displacement(x, parts, false, load_scale).first;
   } else {
@@ -287,7 +288,7 @@ core::ResultField DemSolver::evaluate(const std::vector<Eigen::Vector3d>& points
   r.positions = points;
   if (points.empty()) return r;
   const Tensor x = toTensor(points, m.dtype);
-  const DirichletLift lift = dirichletLift(m.scenario, points, m.length);
+  const DirichletLift lift = dirichletLift(m.scenario, points, m.length, &m.held);
   const Tensor parts[4] = {toTensor(lift.g, m.dtype), toTensor(lift.grad_g, m.dtype), toTensor(lift.D, m.dtype),
                            toTensor(lift.grad_D, m.dtype)};
   // One pass gives the displacement and its gradient.

@@ -21,6 +21,7 @@
 #include "demnerf/mechanics/dem_solver.hpp"
 #include "demnerf/mechanics/dirichlet_lift.hpp"
 #include "demnerf/mechanics/grid_field_newton.hpp"
+#include "demnerf/mechanics/held_face.hpp"
 #include "demnerf/mechanics/material.hpp"
 #include "displacement_mlp.hpp"
 #include "torch_solver_support.hpp"
@@ -32,6 +33,7 @@ struct DemSolver::Impl {
 
   core::ParticleCloud cloud;
   core::Scenario scenario;
+  std::vector<HeldFace> held;  // what each fixture holds (held_face.hpp), fitted to the cloud per scenario
   DemConfig config;
   std::unique_ptr<HyperelasticMaterial> material;
   torch::Dtype dtype = torch::kFloat64;

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "demnerf/mechanics/held_face.hpp"
+
 namespace demnerf::mechanics {
 namespace {
 
@@ -44,7 +46,8 @@ double regionDistance(const core::Region& region, const Eigen::Vector3d& x) {
 }
 
 void dirichletLiftAt(const core::Scenario& scenario, const Eigen::Vector3d& x, double length, Eigen::Vector3d& g,
-                     Eigen::Matrix3d& grad_g, Eigen::Vector3d& D, Eigen::Matrix3d& grad_D) {
+                     Eigen::Matrix3d& grad_g, Eigen::Vector3d& D, Eigen::Matrix3d& grad_D,
+                     const std::vector<HeldFace>* held) {
   // Distances to every fixture once; components pick the fixtures that constrain them.
   constexpr int kMaxFixtures = 16;
   const int nf = static_cast<int>(scenario.fixtures.size());
@@ -61,7 +64,9 @@ void dirichletLiftAt(const core::Scenario& scenario, const Eigen::Vector3d& x, d
     grad = grad_big.data();
   }
   for (int f = 0; f < nf; ++f) {
-    dist[f] = regionDistanceAndGradient(scenario.fixtures[f].region, x, grad[f]) / length;
+    const bool face = held && f < static_cast<int>(held->size()) && (*held)[f].valid;
+    dist[f] = (face ? heldFaceDistance((*held)[f], x, grad[f])
+                    : regionDistanceAndGradient(scenario.fixtures[f].region, x, grad[f])) / length;
     grad[f] /= length;
   }
   for (int c = 0; c < 3; ++c) {
@@ -108,7 +113,8 @@ void dirichletLiftAt(const core::Scenario& scenario, const Eigen::Vector3d& x, d
   }
 }
 
-DirichletLift dirichletLift(const core::Scenario& scenario, const std::vector<Eigen::Vector3d>& points, double length) {
+DirichletLift dirichletLift(const core::Scenario& scenario, const std::vector<Eigen::Vector3d>& points, double length,
+                            const std::vector<HeldFace>* held) {
   DirichletLift lift;
   const std::size_t n = points.size();
   lift.g.resize(n);
@@ -116,7 +122,7 @@ DirichletLift dirichletLift(const core::Scenario& scenario, const std::vector<Ei
   lift.grad_g.resize(n);
   lift.grad_D.resize(n);
   for (std::size_t i = 0; i < n; ++i)
-    dirichletLiftAt(scenario, points[i], length, lift.g[i], lift.grad_g[i], lift.D[i], lift.grad_D[i]);
+    dirichletLiftAt(scenario, points[i], length, lift.g[i], lift.grad_g[i], lift.D[i], lift.grad_D[i], held);
   return lift;
 }
 

@@ -6,6 +6,7 @@
 #include "demnerf/core/error.hpp"
 #include "demnerf/mechanics/boundary_conditions.hpp"
 #include "demnerf/mechanics/boundary_load_quadrature.hpp"
+#include "demnerf/mechanics/held_face.hpp"
 #include "fem_solver_impl.hpp"
 #include "parallel_for.hpp"
 
@@ -58,7 +59,7 @@ void FemSolver::Impl::setup() {
       for (int a = 0; a < n; ++a) f_ext.segment<3>(3 * mesh.elements[e][a]) += N(a) * w * volume * scenario.body_force;
     }
   }
-  const Dirichlet fixed = resolveFixtures(scenario, mesh.nodes);
+  const Dirichlet fixed = resolveMeshFixtures(scenario, mesh);
   prescribed = Eigen::VectorXd::Zero(ndof);
   free_index.assign(ndof, 0);
   for (std::size_t k = 0; k < fixed.index.size(); ++k)

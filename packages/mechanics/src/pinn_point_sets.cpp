@@ -4,12 +4,13 @@
 
 #include "demnerf/core/error.hpp"
 #include "demnerf/mechanics/boundary_conditions.hpp"
+#include "demnerf/mechanics/held_face.hpp"
 
 namespace demnerf::mechanics {
 
 PinnPointSets pinnPointSets(const core::Scenario& scenario, const core::ParticleCloud& cloud) {
   const auto traction = particleTractions(scenario, cloud);
-  const Dirichlet fixed = resolveFixtures(scenario, cloud.positions);
+  const Dirichlet fixed = resolveHeldParticles(scenario, cloud, heldFaces(scenario, cloud));
   std::vector<Eigen::Vector3d> free(cloud.size(), Eigen::Vector3d::Ones());
   for (std::size_t k = 0; k < fixed.index.size(); ++k)
     free[fixed.index[k]] = Eigen::Vector3d::Ones() - fixed.mask[k].cast<double>();

@@ -9,6 +9,8 @@
 
 namespace demnerf::mechanics {
 
+struct HeldFace;  // held_face.hpp
+
 /// g, D and their gradients at points, for a scenario's fixtures at full load.
 struct DirichletLift {
   std::vector<Eigen::Vector3d> g;          ///< lift: equals the prescribed value on each fixture
@@ -22,11 +24,16 @@ double regionDistance(const core::Region& region, const Eigen::Vector3d& x);
 
 /// g, grad g, D, grad D at one point, with analytic gradients (one-sided 0 inside a fixture,
 /// where the distance is flat). Cheap enough to call for every quadrature point every step.
+/// `held` (one per fixture, heldFaces): a fixture with a valid face has D = the distance to that
+/// face, so the rest of its band is free; without `held`, or with an invalid face, D is the
+/// distance to the fixture's region and its whole volume is held.
 void dirichletLiftAt(const core::Scenario& scenario, const Eigen::Vector3d& x, double length, Eigen::Vector3d& g,
-                     Eigen::Matrix3d& grad_g, Eigen::Vector3d& D, Eigen::Matrix3d& grad_D);
+                     Eigen::Matrix3d& grad_g, Eigen::Vector3d& D, Eigen::Matrix3d& grad_D,
+                     const std::vector<HeldFace>* held = nullptr);
 
 /// `length` normalises distances (the body's size), so D is O(1) over the body. Components no
 /// fixture constrains get D = 1, g = 0.
-DirichletLift dirichletLift(const core::Scenario& scenario, const std::vector<Eigen::Vector3d>& points, double length);
+DirichletLift dirichletLift(const core::Scenario& scenario, const std::vector<Eigen::Vector3d>& points, double length,
+                            const std::vector<HeldFace>* held = nullptr);
 
 }  // namespace demnerf::mechanics

@@ -1,0 +1,162 @@
+// What a fixture holds (held_face.hpp): a thick box band clamps the body's face, not the band's
+// volume, in the DEM's lift and in the FEM's nodes alike.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <iostream>
+
+#include "demnerf/mechanics/box_particles.hpp"
+#include "demnerf/mechanics/dem_solver.hpp"
+#include "demnerf/mechanics/dirichlet_lift.hpp"
+#include "demnerf/mechanics/fem_solver.hpp"
+#include "demnerf/mechanics/held_face.hpp"
+#include "demnerf/mechanics/material.hpp"
+#include "demnerf/mechanics/reference_problems.hpp"
+
+#include "box_region.hpp"
+
+namespace dm = demnerf::mechanics;
+namespace core = demnerf::core;
+using Eigen::Vector3d;
+
+namespace {
+
+using demnerf::mechanics::test::box;
+
+// A roller (one component) or clamp on the unit cube's face axis = at, found by a box band
+// `thickness` thick centred on the face.
+core::Fixture band(const std::string& name, int axis, double at, double thickness, double value = 0.0) {
+  core::Fixture f;
+  f.name = name;
+  Vector3d c(0.5, 0.5, 0.5), s(1.4, 1.4, 1.4);
+  c(axis) = at;
+  s(axis) = thickness;
+  f.region = box(c, s);
+  f.constrained = Eigen::Vector3i::Zero();
+  f.constrained(axis) = 1;
+  f.displacement(axis) = value;
+  return f;
+}
+
+// The unit cube on three rollers, pulled to 40 % strain at x = 1, every fixture a band 0.3 thick:
+// held as faces its answer is homogeneous; held as volumes the band's strips on the four sides
+// (and its interior nodes) would be pinned.
+core::Scenario thickBandStretch() {
+  core::Scenario s;
+  s.name = "thick_band_stretch";
+  s.material.youngs_modulus = 1e6;
+  s.material.poisson_ratio = 0.3;
+  s.load_steps = 2;
+  s.fixtures = {band("x0", 0, 0.0, 0.3), band("y0", 1, 0.0, 0.3), band("z0", 2, 0.0, 0.3), band("pull", 0, 1.0, 0.3, 0.4)};
+  return s;
+}
+
+}  // namespace
+
+TEST(HeldFace, AThickBandHoldsTheFaceAndFreesTheBand) {
+  const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(0.1, 0.1, 0.1), Eigen::Vector3i(10, 10, 10));
+  core::Scenario s;
+  core::Fixture clamp;
+  clamp.name = "clamp";
+  clamp.region = box(Vector3d(0, 0.05, 0.05), Vector3d(0.01, 0.12, 0.12));  // x <= 5 mm: face and 5 mm strips
+  s.fixtures = {clamp};
+  const std::vector<dm::HeldFace> held = dm::heldFaces(s, cloud);
+  ASSERT_EQ(held.size(), 1u);
+  ASSERT_TRUE(held[0].valid);
+  EXPECT_NEAR(held[0].normal.x(), -1.0, 1e-12);
+  EXPECT_NEAR(held[0].point.x(), 0.0, 1e-12);
+  EXPECT_EQ(held[0].polygon.size(), 4u);  // the box's 120 x 120 mm section
+  const double length = 0.2;
+  Vector3d g, D;
+  Eigen::Matrix3d gg, gD;
+  const auto liftD = [&](const Vector3d& x, const std::vector<dm::HeldFace>* faces) {
+    dm::dirichletLiftAt(s, x, length, g, gg, D, gD, faces);
+    return D;
+  };
+  // Zero on the clamped face (also at its rim), positive under it and on the sides' strips.
+  EXPECT_EQ(liftD(Vector3d(0, 0.05, 0.05), &held).norm(), 0.0);
+  EXPECT_EQ(liftD(Vector3d(0, 0.1, 0.0), &held).norm(), 0.0);
+  EXPECT_NEAR(liftD(Vector3d(0.003, 0.05, 0.05), &held)(0), 0.003 / length, 1e-12);
+  EXPECT_NEAR(liftD(Vector3d(0.003, 0.1, 0.05), &held)(1), 0.003 / length, 1e-12);
+  // The volume meaning (no faces) pins the whole band.
+  EXPECT_EQ(liftD(Vector3d(0.003, 0.05, 0.05), nullptr).norm(), 0.0);
+  // The penalty DEM and the PINN hold the face's 100 surface particles, not the 240 particles in
+  // the band (those plus the 40 side particles and 100 interior ones at x = 5 mm).
+  EXPECT_EQ(dm::resolveFixtures(s, cloud.positions).index.size(), 240u);
+  const dm::Dirichlet particles = dm::resolveHeldParticles(s, cloud, held);
+  EXPECT_EQ(particles.index.size(), 100u);
+  for (int i : particles.index) EXPECT_EQ(cloud.positions[i].x(), 0.0);
+  // D's gradient inside the band (where the old distance was flat) is the face's normal direction.
+  const Vector3d x(0.004, 0.03, 0.07);
+  liftD(x, &held);
+  const Eigen::Matrix3d analytic = gD;
+  for (int k = 0; k < 3; ++k) {
+    const Vector3d h = 1e-7 * Vector3d::Unit(k);
+    const Vector3d fd = (liftD(x + h, &held) - liftD(x - h, &held)) / 2e-7;
+    EXPECT_LT((fd - analytic.col(k)).norm(), 1e-6) << "axis " << k;
+  }
+  EXPECT_NEAR(analytic(0, 0), 1.0 / length, 1e-12);
+}
+
+TEST(HeldFace, RegionsWithoutADominantFaceHoldTheirVolume) {
+  const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(0.1, 0.1, 0.1), Eigen::Vector3i(10, 10, 10));
+  core::Scenario s;
+  core::Fixture corner, sphere, grip;
+  corner.name = "corner";  // three faces of equal area
+  corner.region = box(Vector3d(0, 0, 0), Vector3d(0.06, 0.06, 0.06));
+  sphere.name = "sphere";
+  sphere.region.type = core::Region::Type::kSphere;
+  sphere.region.center = Vector3d(0, 0.05, 0.05);
+  sphere.region.radius = 0.02;
+  grip.name = "deep grip";  // 40 mm of the four sides against the 100 x 100 mm end
+  grip.region = box(Vector3d(0, 0.05, 0.05), Vector3d(0.08, 0.12, 0.12));
+  s.fixtures = {corner, sphere, grip};
+  const std::vector<dm::HeldFace> held = dm::heldFaces(s, cloud);
+  ASSERT_EQ(held.size(), 3u);
+  for (const dm::HeldFace& f : held) EXPECT_FALSE(f.valid);
+  const dm::FaceCluster cluster = dm::dominantFace({Vector3d::UnitX(), Vector3d::UnitY(), -Vector3d::UnitX()}, {1, 1, 2});
+  EXPECT_NEAR(cluster.share, 0.5, 1e-12);
+  EXPECT_NEAR(cluster.normal.x(), -1.0, 1e-12);
+}
+
+TEST(HeldFace, FemThickBandsClampFacesSoTheStretchStaysHomogeneous) {
+  const core::Scenario s = thickBandStretch();
+  // 4 x 4 x 4 TET10: the bands (0.15 deep) hold the mid-edge nodes 0.125 in from each face.
+  const dm::TetMesh mesh = dm::structuredBoxMesh(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(4, 4, 4), 2);
+  const dm::Dirichlet volume = dm::resolveFixtures(s, mesh.nodes);
+  const dm::Dirichlet faces = dm::resolveMeshFixtures(s, mesh);
+  EXPECT_LT(faces.index.size(), volume.index.size());
+  dm::FemSolver solver(mesh, s);
+  const dm::FemResult& r = solver.solve();
+  const double b = dm::uniaxialLateralStretch(*dm::makeMaterial(s.material), 1.4);
+  double worst = 0.0;
+  for (std::size_t i = 0; i < solver.mesh().nodes.size(); ++i) {
+    const Vector3d& X = solver.mesh().nodes[i];
+    worst = std::max(worst, (r.displacement[i] - Vector3d(0.4 * X.x(), (b - 1) * X.y(), (b - 1) * X.z())).norm());
+  }
+  EXPECT_LT(worst, 1e-8);
+}
+
+TEST(HeldFace, DemThickBandsClampFacesSoTheStretchStaysHomogeneous) {
+  const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(12, 12, 12));
+  const core::Scenario s = thickBandStretch();
+  dm::DemConfig config;
+  config.network.width = 8;
+  config.network.depth = 2;
+  config.adam.iterations = 0;
+  config.grid.cell = 0.34;
+  config.threads = 1;
+  dm::DemSolver dem(cloud, s, config);
+  const dm::DemReport report = dem.solve();
+  const double b = dm::uniaxialLateralStretch(*dm::makeMaterial(s.material), 1.4);
+  const auto u = dem.predict(cloud.positions);
+  double err = 0, ref = 0;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Vector3d& X = cloud.positions[i];
+    const Vector3d exact(0.4 * X.x(), (b - 1) * X.y(), (b - 1) * X.z());
+    err = std::max(err, (u[i] - exact).norm());
+    ref = std::max(ref, exact.norm());
+  }
+  std::cout << "DEM, 0.3-thick bands on the unit cube: max rel error " << err / ref << " in " << report.seconds << " s\n";
+  EXPECT_LT(err / ref, 0.01);
+}
