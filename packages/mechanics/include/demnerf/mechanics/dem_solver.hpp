@@ -73,7 +73,7 @@ struct DemGridConfig {
   DemGridQuadrature quadrature = DemGridQuadrature::kCells;  ///< Gauss points in cells, or the particles (kCells)
   int gauss_points = 2;           ///< Gauss points per axis and cell, kCells (2)
   int boundary_levels = 1;        ///< times a cut cell is split 2 x 2 x 2, kCells (1)
-  double extension_fill = 0.75;   ///< nodes touching no cell filled this much are extrapolated; 0: off (0.75)
+  double extension_fill = 0.25;   ///< nodes touching no cell filled this much are extrapolated; 0: off (0.25)
   int newton_iterations = 30;     ///< Newton iterations of the grid solve (30)
   double refine_band = 1.0;       ///< particles within this many cells of a region split 2 x 2 x 2, kParticles (1)
   double surface_share = 0.04;    ///< share of energyWeights() in the particle weights, kParticles (0.04)

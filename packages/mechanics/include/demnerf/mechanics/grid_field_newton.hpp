@@ -59,8 +59,8 @@ struct GridNewtonConfig {
   /// A Newton decrement below this fraction of max(|Pi|, strain energy) is below the energy's
   /// rounding: such steps skip the line search (at most 3 of them; convergence is the residual's).
   double tolerance = 1e-12;
-  /// Diagonal shift relative to the mean diagonal when the Hessian is not positive definite
-  /// (far from the minimum of the nonconvex energy), multiplied by 10 until it is.
+  /// Smallest diagonal shift, relative to each column's own diagonal, when the Hessian is not
+  /// positive definite (far from the minimum of the nonconvex energy; shifted_cholesky.hpp).
   double initial_shift = 1e-6;
   /// Extended B-splines (bspline_extension.hpp): nodes whose support holds no grid cell filled to
   /// at least this share by the quadrature are extrapolated from a nearby filled cell instead of
