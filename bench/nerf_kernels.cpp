@@ -68,6 +68,7 @@ void fieldCosts() {
   std::mt19937 rng(3);
   std::uniform_real_distribution<float> u(0.0f, 1.0f), signed_unit(-1.0f, 1.0f);
   for (float& v : field.table()) v = 1e-2f * signed_unit(rng);
+  field.refreshTransposed();  // the half copy the forward reads
   const int n = NgpField::kChunk, chunks = 200;
   std::vector<float> unit(3 * n * chunks), dirs(3 * n * chunks);
   for (int s = 0; s < n * chunks; s += 8) {
@@ -85,9 +86,10 @@ void fieldCosts() {
   grads.color.assign(field.colorWeights().size(), 0.0f);
   std::vector<float> sigma(n), rgb(3 * n), gs(n, 1e-3f), grgb(3 * n, 1e-3f), genc(n * field.hashLayout().outputDims());
   std::vector<float> table_grad(field.table().size(), 0.0f);
-  double forward = 1e30, backward = 1e30, table = 1e30, encode = 1e30;
+  double forward = 1e30, backward = 1e30, table = 1e30, encode = 1e30, encode_half = 1e30;
+  const std::uint16_t* half = field.halfTable();  // what forwardChunk reads when not null
   for (int repeat = 0; repeat < 3; ++repeat) {
-    double f = 0, b = 0, t = 0, e = 0;
+    double f = 0, b = 0, t = 0, e = 0, eh = 0;
     for (int c = 0; c < chunks; ++c) {
       const float* pu = unit.data() + 3 * n * c;
       double t0 = threadSeconds();
@@ -98,7 +100,10 @@ void fieldCosts() {
       hashEncodeBackwardTable(field.hashLayout(), pu, n, genc.data(), table_grad.data(), 0, field.hashLayout().levels);
       const double t3 = threadSeconds();
       hashEncodeForward(field.hashLayout(), field.table().data(), pu, n, genc.data());
-      e += threadSeconds() - t3;
+      const double t4 = threadSeconds();
+      e += t4 - t3;
+      if (half) hashEncodeForwardHalf(field.hashLayout(), half, pu, n, genc.data());
+      eh += threadSeconds() - t4;
       t += t3 - t2;
       f += t1 - t0;
       b += t2 - t1;
@@ -107,6 +112,7 @@ void fieldCosts() {
     backward = std::min(backward, b);
     table = std::min(table, t);
     encode = std::min(encode, e);
+    encode_half = std::min(encode_half, eh);
   }
   // The table's Adam sweep as a training step runs it: every entry touched (the fox's case).
   AdamMoments moments;
@@ -125,9 +131,13 @@ void fieldCosts() {
   }
   std::printf("table_adam_ms_per_step %.2f\n", 1e3 * adam);
   const double per = 1e6 / (static_cast<double>(n) * chunks);
-  std::printf("field_forward_us_per_sample %.3f\nfield_forward_hash_part_us %.3f\nfield_forward_mlp_part_us %.3f\n"
+  // The field forward reads the half table when there is one: its MLP part subtracts that.
+  const double encode_used = half ? encode_half : encode;
+  std::printf("field_forward_us_per_sample %.3f\nhash_forward_float_us_per_sample %.3f\n"
+              "hash_forward_half_us_per_sample %.3f\nfield_forward_mlp_part_us %.3f\n"
               "field_backward_mlp_us_per_sample %.3f\nfield_backward_table_us_per_sample %.3f\n",
-              forward * per, encode * per, (forward - encode) * per, backward * per, table * per);
+              forward * per, encode * per, half ? encode_half * per : 0.0, (forward - encode_used) * per,
+              backward * per, table * per);
   batchScatterCosts(field, unit);
 }
 

@@ -3,6 +3,9 @@
 #include <ATen/Parallel.h>
 
 #include <cmath>
+#if defined(__F16C__)
+#include <immintrin.h>
+#endif
 
 namespace demnerf::nerf {
 namespace {
@@ -51,7 +54,7 @@ void adamSparse(const AdamHyper& h, float* params, float* grads, AdamMoments& mo
 }
 
 void adamTouched(const AdamHyper& h, float* params, float* grads, AdamMoments& moments, std::int64_t begin,
-                 std::int64_t end, int features, std::uint8_t* touched) {
+                 std::int64_t end, int features, std::uint8_t* touched, std::uint16_t* half) {
   const Step s(h);
   float* m = moments.m.data();
   float* v = moments.v.data();
@@ -61,6 +64,10 @@ void adamTouched(const AdamHyper& h, float* params, float* grads, AdamMoments& m
     for (int f = 0; f < features; ++f) {
       const std::int64_t i = e * features + f;
       s.apply(params[i], grads[i], m[i], v[i]);
+#if defined(__F16C__)
+      // The forward's half copy follows the entries Adam changes, while they are in cache.
+      if (half) half[i] = _cvtss_sh(params[i], _MM_FROUND_TO_NEAREST_INT);
+#endif
     }
   }
 }

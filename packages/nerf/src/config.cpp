@@ -34,6 +34,7 @@ std::vector<Entry> entries(NerfConfig& c) {
       {"hash", "log2_table_size", &c.hash.log2_table_size},
       {"hash", "base_resolution", &c.hash.base_resolution},
       {"hash", "finest_resolution", &c.hash.finest_resolution},
+      {"hash", "half_table", &c.hash.half_table},
       {"field", "density_hidden", &c.field.density_hidden},
       {"field", "density_layers", &c.field.density_layers},
       {"field", "geometry_features", &c.field.geometry_features},

@@ -48,6 +48,13 @@ NgpField::NgpField(const NerfConfig& config, const Box& bounds, double aabb_scal
 }
 
 void NgpField::refreshTransposed() {
+  refreshMlpCopies();
+  const bool half = config_.hash.half_table && hash_layout_.features == 2 && halfTableSupported();
+  table_half_.resize(half ? table_.size() : 0);
+  if (half) toHalf(table_.data(), 0, static_cast<std::int64_t>(table_.size()), table_half_.data());
+}
+
+void NgpField::refreshMlpCopies() {
   density_t_.resize(density_weights_.size());
   color_t_.resize(color_weights_.size());
   for (int l = 0; l < density_layout_.layers(); ++l) {
@@ -74,7 +81,8 @@ void NgpField::forwardChunk(const float* unit, const float* directions, int n, F
   ws.encoding.resize(static_cast<std::size_t>(kChunk) * enc_dims);
   ws.density_act.resize(dl);
   const auto encode_start = std::chrono::steady_clock::now();
-  hashEncodeForward(hash_layout_, table_.data(), unit, n, ws.encoding.data());
+  if (table_half_.empty()) hashEncodeForward(hash_layout_, table_.data(), unit, n, ws.encoding.data());
+  else hashEncodeForwardHalf(hash_layout_, table_half_.data(), unit, n, ws.encoding.data());
   ws.encode_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - encode_start).count();
   const float* input = ws.encoding.data();
   for (int l = 0; l < dl; ++l) {

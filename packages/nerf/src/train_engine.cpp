@@ -341,7 +341,7 @@ void TrainEngine::updateTable(const AdamHyper& h) {
         // A sequential sweep over the level's flags streams through memory; visiting a list
         // of touched entries in scatter order would miss the cache on nearly every entry.
         adamTouched(h, field.table().data(), table_grad_.data(), table_moments_, layout.offset[l],
-                    layout.offset[l] + layout.entries[l], features, touched_.data());
+                    layout.offset[l] + layout.entries[l], features, touched_.data(), field.halfTable());
       }
     }
   });
@@ -368,7 +368,7 @@ void TrainEngine::updateMlps(const AdamHyper& h) {
             static_cast<std::int64_t>(field.densityWeights().size()));
   adamDense(h, field.colorWeights().data(), sum.color.data(), color_moments_,
             static_cast<std::int64_t>(field.colorWeights().size()));
-  field.refreshTransposed();
+  field.refreshMlpCopies();
   times_.optimizer += since(t2);
 }
 

@@ -23,8 +23,9 @@ void adamDense(const AdamHyper& h, float* params, float* grads, AdamMoments& mom
 void adamSparse(const AdamHyper& h, float* params, float* grads, AdamMoments& moments,
                 const std::vector<std::int64_t>& entries, int features, std::uint8_t* touched);
 /// On the calling thread: updates the entries in [begin, end) whose touched flag is set and
-/// clears the flag (for callers that already split the work).
+/// clears the flag (for callers that already split the work). `half`, when not null, is the
+/// half-precision copy of params (NgpField::halfTable()) and gets every updated value.
 void adamTouched(const AdamHyper& h, float* params, float* grads, AdamMoments& moments, std::int64_t begin,
-                 std::int64_t end, int features, std::uint8_t* touched);
+                 std::int64_t end, int features, std::uint8_t* touched, std::uint16_t* half = nullptr);
 
 }  // namespace demnerf::nerf

@@ -15,6 +15,10 @@ struct HashGridConfig {
   int log2_table_size = 15;       ///< entries per level (coarse levels that fit are dense); 15 keeps the tables in cache
   int base_resolution = 16;
   int finest_resolution = 0;      ///< 0: 512 x the dataset's aabb_scale
+  /// The forward (training, occupancy, rendering) reads a half-precision copy of the table
+  /// (2 features per level and an AVX-512 + F16C build; else the float table); Adam keeps
+  /// the float master. Half the bytes for the fine levels' cache-missing gathers.
+  bool half_table = true;
 };
 
 /// Density MLP (hash features -> log-density + geometry features) and colour MLP

@@ -44,6 +44,16 @@ void hashEncodeBackwardTable(const HashGridLayout& layout, const float* position
 void hashEncodeBackwardLevel(const HashGridLayout& layout, const float* positions, std::int64_t n,
                              const float* grad, std::int64_t grad_stride, float* grad_table, int level,
                              std::uint8_t* touched = nullptr);
+/// Whether this build has the half-precision forward (AVX-512 and F16C, i.e. the kernels were
+/// compiled for a CPU that has them); without it callers keep to the float table.
+bool halfTableSupported();
+/// The forward from a half-precision copy of a two-feature table (IEEE halves, two per entry,
+/// entry e at half[2e]): the fine levels' gathers miss the cache on half the bytes. Needs
+/// layout.features == 2 and halfTableSupported().
+void hashEncodeForwardHalf(const HashGridLayout& layout, const std::uint16_t* half, const float* positions,
+                           std::int64_t n, float* out);
+/// Rounds floats [begin, end) of the table to the nearest half (no-op without support).
+void toHalf(const float* values, std::int64_t begin, std::int64_t end, std::uint16_t* half);
 /// Writes d(loss)/d(positions) (n x 3), positions in the unit cube.
 void hashEncodeBackwardPositions(const HashGridLayout& layout, const float* table, const float* positions,
                                  std::int64_t n, const float* grad_out, float* grad_positions);

@@ -62,8 +62,14 @@ class NgpField : public Field {
   /// d(loss)/d(encoding) [n x levels*features] for the hash table update.
   void backwardChunk(int n, FieldWorkspace& ws, const float* grad_sigma, const float* grad_rgb,
                      MlpGradients& grads, float* grad_encoding) const;
-  /// Refreshes the transposed weights backwardChunk uses; call after changing the weights.
+  /// Refreshes every derived copy of the weights (the transposed MLP weights backwardChunk
+  /// uses, the half-precision table the forward reads); call after changing the weights.
   void refreshTransposed();
+  /// Only the MLPs' transposed copies (the trainer keeps the half table current entry by entry).
+  void refreshMlpCopies();
+  /// The half-precision copy of the table the forward reads (2 halves per entry), or null when
+  /// the forward reads the float table (hash.half_table off, features != 2, or no support).
+  std::uint16_t* halfTable() { return table_half_.empty() ? nullptr : table_half_.data(); }
 
  private:
   NerfConfig config_;
@@ -74,6 +80,7 @@ class NgpField : public Field {
   int sh_dims_;
   std::vector<float> table_, density_weights_, color_weights_;
   std::vector<float> density_t_, color_t_;  ///< transposed copies for the input gradients
+  std::vector<std::uint16_t> table_half_;   ///< the forward's copy of table_ (see halfTable())
 };
 
 /// trunc_exp: exp with the input clamped, so densities neither overflow nor get huge steps.
