@@ -5,11 +5,15 @@
 //                     [--transmittance 1e-4,1e-3,1e-2] [--census 1]
 // --census 1 first prints where the training march's samples go (by compositing weight).
 
+#include <ATen/Parallel.h>
+
+#include <algorithm>
 #include <cstdio>
 #include <ctime>
 #include <map>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "demnerf/core/dataset.hpp"
@@ -91,6 +95,9 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
+    // Every core: Debian's libtorch starts with one thread, and its count is OpenMP's, which the
+    // renderer's kernels use (the product's entry points do the same, configureRuntime).
+    at::set_num_threads(static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
     core::DatasetOptions options;
     options.downscale = std::stod(get("downscale", "1"));
     const core::Dataset dataset = core::loadDataset(args["data"], options);

@@ -11,6 +11,7 @@
 
 #include <ATen/Parallel.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <ctime>
@@ -21,6 +22,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <string>
+#include <thread>
 
 #include "demnerf/core/dataset.hpp"
 #include "demnerf/nerf/evaluate.hpp"
@@ -178,7 +180,10 @@ int main(int argc, char** argv) {
     options.downscale = std::stod(get("downscale", "1"));
     const core::Dataset dataset = core::loadDataset(args["data"], options);
     nerf::NerfConfig config = args.count("config") ? nerf::loadNerfConfig(args["config"]) : nerf::NerfConfig{};
-    if (config.train.threads > 0) at::set_num_threads(config.train.threads);  // the entry point's job, not the Trainer's
+    // The entry point's job, not the Trainer's: every core unless the config names a count (Debian's
+    // libtorch starts with one thread, and its count is OpenMP's, which the NeRF kernels use).
+    at::set_num_threads(config.train.threads > 0 ? config.train.threads
+                                                 : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
     nerf::Trainer trainer(config, nerf::datasetBox(dataset), dataset.aabb_scale);
     trainer.addFrames(dataset.train);
     std::fprintf(stderr, "nerf_train: %zu train / %zu test views, %dx%d, box %.3g x %.3g x %.3g, aabb_scale %.3g\n",
