@@ -57,29 +57,40 @@ WrenchTraction spreadWrench(const std::vector<Eigen::Vector3d>& points, const st
 }
 
 Dirichlet resolveFixtures(const core::Scenario& scenario, const std::vector<Eigen::Vector3d>& points) {
+  return assembleFixtures(
+      scenario, points.size(),
+      [&](std::size_t f) {
+        std::vector<int> inside;
+        for (std::size_t i = 0; i < points.size(); ++i)
+          if (scenario.fixtures[f].region.contains(points[i])) inside.push_back(static_cast<int>(i));
+        return inside;
+      },
+      "points");
+}
+
+Dirichlet assembleFixtures(const core::Scenario& scenario, std::size_t count,
+                           const std::function<std::vector<int>(std::size_t)>& held_by, const std::string& what) {
   if (scenario.fixtures.empty())
     throw core::Error("scenario '" + scenario.name +
                       "' has no fixture: the body could move rigidly and the solution is not unique; add a fixture");
-  std::vector<Eigen::Vector3d> value(points.size(), Eigen::Vector3d::Zero());
-  std::vector<Eigen::Vector3i> mask(points.size(), Eigen::Vector3i::Zero());
-  for (const core::Fixture& fixture : scenario.fixtures) {
-    std::size_t selected = 0;
-    for (std::size_t i = 0; i < points.size(); ++i) {
-      if (!fixture.region.contains(points[i])) continue;
-      ++selected;
+  std::vector<Eigen::Vector3d> value(count, Eigen::Vector3d::Zero());
+  std::vector<Eigen::Vector3i> mask(count, Eigen::Vector3i::Zero());
+  for (std::size_t f = 0; f < scenario.fixtures.size(); ++f) {
+    const core::Fixture& fixture = scenario.fixtures[f];
+    const std::vector<int> held = held_by(f);
+    if (held.empty())
+      throw core::Error("fixture '" + fixture.name + "' selects no " + what + ": region " + fixture.region.describe());
+    if (fixture.constrained.isZero())
+      throw core::Error("fixture '" + fixture.name + "' constrains no displacement component");
+    for (int i : held)
       for (int c = 0; c < 3; ++c) {
         if (!fixture.constrained(c)) continue;
         mask[i](c) = 1;
         value[i](c) = fixture.displacement(c);
       }
-    }
-    if (selected == 0)
-      throw core::Error("fixture '" + fixture.name + "' selects no points: region " + fixture.region.describe());
-    if (fixture.constrained.isZero())
-      throw core::Error("fixture '" + fixture.name + "' constrains no displacement component");
   }
   Dirichlet d;
-  for (std::size_t i = 0; i < points.size(); ++i) {
+  for (std::size_t i = 0; i < count; ++i) {
     if (mask[i].isZero()) continue;
     d.index.push_back(static_cast<int>(i));
     d.value.push_back(value[i]);

@@ -84,28 +84,39 @@ void DemSolver::Impl::buildParticleGridQuadrature() {
   }
 }
 
+// The grid Newton's problem on a quadrature (points, weights, their lift and its tensors `lifted`
+// at x) at load `scale`: the offset is the displacement without the free grid (with_grid false:
+// the lift and the MLP's share) or the whole answer (with_grid true: the MLP's check, where the
+// test basis starts from the answer).
+GridFieldProblem DemSolver::Impl::fieldProblem(const std::vector<Eigen::Vector3d>& points,
+                                               const std::vector<double>& weights, const DirichletLift& lift,
+                                               const Tensor& x, const Tensor* lifted, double scale,
+                                               bool with_grid) const {
+  GridFieldProblem pb;
+  pb.points = points;
+  pb.volume = weights;
+  pb.D = lift.D;
+  pb.grad_D = lift.grad_D;
+  for (double w : weights) pb.body.push_back(scale * w * scenario.body_force);
+  const auto [u, grad_u] = displacement(x, lifted, true, scale, nullptr, with_grid);
+  pb.offset = torch_support::toVectors(u);
+  pb.grad_offset = torch_support::toMatrices(grad_u);
+  if (xs.size(0) > 0) {
+    pb.surface_points = torch_support::toVectors(xs);
+    pb.surface_offset = torch_support::toVectors(displacement(xs, lift_s, false, scale, nullptr, with_grid).first);
+    pb.surface_D = torch_support::toVectors(lift_s[2]);
+    pb.surface_force = torch_support::toVectors(traction_area * scale);
+  }
+  return pb;
+}
+
 // Newton on the feature grid's coefficients with the MLP frozen (grid_field_newton.hpp), on the
 // grid quadrature: the best field in MLP + grid with the MLP's share fixed.
 // False when Newton does not converge within grid_newton_iterations (the load step then counts as
 // failed and is halved).
 bool DemSolver::Impl::solveGrid(double scale, int& iterations) {
   torch::NoGradGuard guard;
-  GridFieldProblem pb;
-  pb.points = gq_points;
-  pb.volume = gq_volume;
-  pb.D = gq_lift.D;
-  pb.grad_D = gq_lift.grad_D;
-  for (double v : gq_volume) pb.body.push_back(scale * v * scenario.body_force);
-  // Offset: everything but the grid (the lift and the MLP's share).
-  const auto [u0, gu0] = displacement(gq_x, gq_lift_t, true, scale, nullptr, false);
-  pb.offset = torch_support::toVectors(u0);
-  pb.grad_offset = torch_support::toMatrices(gu0);
-  if (xs.size(0) > 0) {
-    pb.surface_points = torch_support::toVectors(xs);
-    pb.surface_offset = torch_support::toVectors(displacement(xs, lift_s, false, scale, nullptr, false).first);
-    pb.surface_D = torch_support::toVectors(lift_s[2]);
-    pb.surface_force = torch_support::toVectors(traction_area * scale);
-  }
+  const GridFieldProblem pb = fieldProblem(gq_points, gq_volume, gq_lift, gq_x, gq_lift_t, scale, false);
   // The Newton unknowns are in metres: c C.
   Eigen::MatrixXd C = toEigen(grid_coef.detach()) * out_scale;
   GridNewtonConfig newton;

@@ -125,23 +125,10 @@ DemSolver::Impl::MlpCheck DemSolver::Impl::mlpEquilibrium(double scale) {
   MlpCheck out;
   out.cell = check_grid->cell();
   const DirichletLift lift = dirichletLift(scenario, check_points, length, &held);
-  GridFieldProblem answer;
-  answer.points = check_points;
-  answer.volume = check_weights;
-  answer.D = lift.D;
-  answer.grad_D = lift.grad_D;
-  for (double w : check_weights) answer.body.push_back(scale * w * scenario.body_force);
   const Tensor lifted[4] = {toTensor(lift.g, dtype), toTensor(lift.grad_g, dtype), toTensor(lift.D, dtype),
                             toTensor(lift.grad_D, dtype)};
-  const auto [u, grad_u] = displacement(toTensor(check_points, dtype), lifted, true, scale);
-  answer.offset = torch_support::toVectors(u);
-  answer.grad_offset = torch_support::toMatrices(grad_u);
-  if (xs.size(0) > 0) {
-    answer.surface_points = torch_support::toVectors(xs);
-    answer.surface_offset = torch_support::toVectors(displacement(xs, lift_s, false, scale).first);
-    answer.surface_D = torch_support::toVectors(lift_s[2]);
-    answer.surface_force = torch_support::toVectors(traction_area * scale);
-  }
+  const GridFieldProblem answer =
+      fieldProblem(check_points, check_weights, lift, toTensor(check_points, dtype), lifted, scale, true);
   // The same problem at the lift alone, u = s g: the state with no free part. Its energy bounds
   // the minimum from above (0 J without prescribed displacements, where g = 0), and its residual
   // is the load: what a prescribed displacement puts on the body, or the external forces.

@@ -100,6 +100,9 @@ struct DemSolver::Impl {
   // dem_grid_solve.cpp
   void buildGridQuadrature();
   bool solveGrid(double scale, int& iterations);
+  GridFieldProblem fieldProblem(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& weights,
+                                const DirichletLift& lift, const Tensor& x, const Tensor* lifted, double scale,
+                                bool with_grid) const;
   std::string gridFailureAdvice() const;
   void checkAnswer(const DemReport& report) const;
 

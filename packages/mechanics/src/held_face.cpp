@@ -203,53 +203,16 @@ std::vector<int> heldMeshNodes(const core::Region& region, const TetMesh& mesh, 
   return {held.begin(), held.end()};
 }
 
-namespace {
-
-// resolveFixtures' rule on per-fixture lists of held points: a point held by several fixtures
-// takes each component from the last one that constrains it.
-Dirichlet assembleHeld(const core::Scenario& scenario, std::size_t count,
-                       const std::function<std::vector<int>(std::size_t)>& held_by, const std::string& what) {
-  if (scenario.fixtures.empty())
-    throw core::Error("scenario '" + scenario.name +
-                      "' has no fixture: the body could move rigidly and the solution is not unique; add a fixture");
-  std::vector<Eigen::Vector3d> value(count, Eigen::Vector3d::Zero());
-  std::vector<Eigen::Vector3i> mask(count, Eigen::Vector3i::Zero());
-  for (std::size_t f = 0; f < scenario.fixtures.size(); ++f) {
-    const core::Fixture& fixture = scenario.fixtures[f];
-    const std::vector<int> held = held_by(f);
-    if (held.empty())
-      throw core::Error("fixture '" + fixture.name + "' selects no " + what + ": region " + fixture.region.describe());
-    if (fixture.constrained.isZero())
-      throw core::Error("fixture '" + fixture.name + "' constrains no displacement component");
-    for (int i : held)
-      for (int c = 0; c < 3; ++c) {
-        if (!fixture.constrained(c)) continue;
-        mask[i](c) = 1;
-        value[i](c) = fixture.displacement(c);
-      }
-  }
-  Dirichlet d;
-  for (std::size_t i = 0; i < count; ++i) {
-    if (mask[i].isZero()) continue;
-    d.index.push_back(static_cast<int>(i));
-    d.value.push_back(value[i]);
-    d.mask.push_back(mask[i]);
-  }
-  return d;
-}
-
-}  // namespace
-
 Dirichlet resolveMeshFixtures(const core::Scenario& scenario, const TetMesh& mesh) {
   const std::vector<BoundaryFace> faces = boundaryFaces(mesh);
-  return assembleHeld(
+  return assembleFixtures(
       scenario, mesh.nodes.size(),
       [&](std::size_t f) { return heldMeshNodes(scenario.fixtures[f].region, mesh, faces); }, "FEM node");
 }
 
 Dirichlet resolveHeldParticles(const core::Scenario& scenario, const core::ParticleCloud& cloud,
                                const std::vector<HeldFace>& held) {
-  return assembleHeld(
+  return assembleFixtures(
       scenario, cloud.size(),
       [&](std::size_t f) {
         const core::Region& region = scenario.fixtures[f].region;

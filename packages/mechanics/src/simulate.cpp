@@ -32,16 +32,6 @@ const char* solverName(SolverChoice solver) {
 
 namespace {
 
-// Edge of a particle's cell: the cube root of the median particle volume (a grid sampler's spacing).
-double medianParticleEdge(const core::ParticleCloud& cloud) {
-  std::vector<double> v;
-  for (double x : cloud.volumes)
-    if (x > 0) v.push_back(x);
-  if (v.empty()) return 0.0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return std::cbrt(v[v.size() / 2]);
-}
-
 /// The voxel (or CGAL) cell of an automatic FEM mesh: from the body and the accuracy asked for,
 /// not from how finely it was sampled. Voxels of particles are a whole number of the particles'
 /// own cells (no finer: empty cells would be holes), so a grid-sampled body keeps its faces; over

@@ -139,18 +139,24 @@ TetMesh voxelMeshFromSurface(const core::TriangleMesh& mesh, const VoxelMeshConf
   return tetsFromCells(lo, h, dims, active, config.order);
 }
 
-TetMesh voxelMeshFromParticles(const core::ParticleCloud& cloud, const VoxelMeshConfig& config) {
+double medianParticleEdge(const core::ParticleCloud& cloud) {
   std::vector<double> volumes;
+  for (double v : cloud.volumes)
+    if (v > 0) volumes.push_back(v);
+  if (volumes.empty()) return 0.0;
+  std::nth_element(volumes.begin(), volumes.begin() + volumes.size() / 2, volumes.end());
+  return std::cbrt(volumes[volumes.size() / 2]);
+}
+
+TetMesh voxelMeshFromParticles(const core::ParticleCloud& cloud, const VoxelMeshConfig& config) {
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
   for (std::size_t i = 0; i < cloud.size(); ++i)
     if (cloud.volumes[i] > 0) {
-      volumes.push_back(cloud.volumes[i]);
       lo = lo.cwiseMin(cloud.positions[i]);
       hi = hi.cwiseMax(cloud.positions[i]);
     }
-  if (volumes.empty()) throw core::Error("voxel mesh: the particle cloud has no particle with volume > 0");
-  std::nth_element(volumes.begin(), volumes.begin() + volumes.size() / 2, volumes.end());
-  const double spacing = std::cbrt(volumes[volumes.size() / 2]);
+  const double spacing = medianParticleEdge(cloud);
+  if (!(spacing > 0)) throw core::Error("voxel mesh: the particle cloud has no particle with volume > 0");
   const double cell = config.cell > 0.0 ? config.cell : spacing;
   checkCell(cell);
   // Cells coarser than the particles' own start on the particles' cell boundaries (a whole number
@@ -175,16 +181,15 @@ TetMesh voxelMeshFromParticles(const core::ParticleCloud& cloud, const VoxelMesh
 }
 
 bool particlesFormALattice(const core::ParticleCloud& cloud) {
-  std::vector<double> volumes;
+  const double spacing = medianParticleEdge(cloud);
+  if (!(spacing > 0)) return false;
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300);
+  long with_volume = 0;
   for (std::size_t i = 0; i < cloud.size(); ++i)
     if (cloud.volumes[i] > 0) {
-      volumes.push_back(cloud.volumes[i]);
       lo = lo.cwiseMin(cloud.positions[i]);
+      ++with_volume;
     }
-  if (volumes.empty()) return false;
-  std::nth_element(volumes.begin(), volumes.begin() + volumes.size() / 2, volumes.end());
-  const double spacing = std::cbrt(volumes[volumes.size() / 2]);
   const Eigen::Vector3d lower = lo - Eigen::Vector3d::Constant(0.5 * spacing);
   std::set<std::array<long, 3>> cells;
   for (std::size_t i = 0; i < cloud.size(); ++i) {
@@ -193,7 +198,7 @@ bool particlesFormALattice(const core::ParticleCloud& cloud) {
     cells.insert({static_cast<long>(c(0)), static_cast<long>(c(1)), static_cast<long>(c(2))});
   }
   // A lattice puts one particle in each cell; a Poisson cloud leaves about a third of them empty.
-  return static_cast<double>(cells.size()) >= 0.95 * static_cast<double>(volumes.size());
+  return static_cast<double>(cells.size()) >= 0.95 * static_cast<double>(with_volume);
 }
 
 }  // namespace demnerf::mechanics

@@ -4,6 +4,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -37,6 +38,12 @@ struct Dirichlet {
 /// last fixture that constrains it. Throws core::Error when the scenario has no fixture (rigid
 /// motion) or a fixture selects no point.
 Dirichlet resolveFixtures(const core::Scenario& scenario, const std::vector<Eigen::Vector3d>& points);
+
+/// resolveFixtures' rule on `count` points of which fixture f holds held_by(f) (indices), for
+/// solvers that choose the held points otherwise (a fixture that holds a face: held_face.hpp).
+/// `what` names the points in the error for a fixture that holds none.
+Dirichlet assembleFixtures(const core::Scenario& scenario, std::size_t count,
+                           const std::function<std::vector<int>(std::size_t)>& held_by, const std::string& what);
 
 /// Traction per particle (zero for interior particles and outside every load region) at full
 /// load; loads spread over the surface particles (area > 0) in their region. Throws core::Error

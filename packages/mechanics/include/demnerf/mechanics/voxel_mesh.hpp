@@ -42,6 +42,10 @@ TetMesh voxelMeshFromSurface(const core::TriangleMesh& mesh, const VoxelMeshConf
 /// half theirs, so a multiple of a grid cloud's spacing keeps its faces.
 TetMesh voxelMeshFromParticles(const core::ParticleCloud& cloud, const VoxelMeshConfig& config);
 
+/// The particles' spacing as voxelMeshFromParticles takes it: the cube root of the median volume
+/// of the particles with volume > 0 (a grid sampler's spacing); 0 when none has a volume.
+double medianParticleEdge(const core::ParticleCloud& cloud);
+
 /// Whether the particles with volume form a lattice: each cell of voxelMeshFromParticles's
 /// one-spacing grid holds one of them (a grid sampler's cloud). Over a random or Poisson cloud
 /// many such cells are empty, so one-spacing voxels leave holes and hinges.
