@@ -59,7 +59,8 @@ void FemSolver::Impl::setup() {
       for (int a = 0; a < n; ++a) f_ext.segment<3>(3 * mesh.elements[e][a]) += N(a) * w * volume * scenario.body_force;
     }
   }
-  const Dirichlet fixed = resolveMeshFixtures(scenario, mesh);
+  const std::vector<BoundaryFace> faces = boundaryFaces(mesh);  // the fixtures' and the loads'
+  const Dirichlet fixed = resolveMeshFixtures(scenario, mesh, faces);
   prescribed = Eigen::VectorXd::Zero(ndof);
   free_index.assign(ndof, 0);
   for (std::size_t k = 0; k < fixed.index.size(); ++k)
@@ -68,14 +69,13 @@ void FemSolver::Impl::setup() {
         free_index[3 * fixed.index[k] + c] = -1;
         prescribed(3 * fixed.index[k] + c) = fixed.value[k](c);
       }
-  setupLoads();
+  setupLoads(faces);
   setupPattern();
   u = Eigen::VectorXd::Zero(ndof);
   buildGrid();
 }
 
-void FemSolver::Impl::setupLoads() {
-  const auto faces = boundaryFaces(mesh);
+void FemSolver::Impl::setupLoads(const std::vector<BoundaryFace>& faces) {
   for (const core::Load& load : scenario.loads) {
     const std::vector<BoundaryLoadPoint> where = boundaryLoadQuadrature(mesh, faces, load.region);
     std::vector<Eigen::Vector3d> points;

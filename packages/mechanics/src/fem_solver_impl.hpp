@@ -65,7 +65,7 @@ struct FemSolver::Impl {
   }
 
   void setup();
-  void setupLoads();
+  void setupLoads(const std::vector<BoundaryFace>& faces);
 
   void setupPattern();
   void buildGrid();

@@ -203,8 +203,8 @@ std::vector<int> heldMeshNodes(const core::Region& region, const TetMesh& mesh, 
   return {held.begin(), held.end()};
 }
 
-Dirichlet resolveMeshFixtures(const core::Scenario& scenario, const TetMesh& mesh) {
-  const std::vector<BoundaryFace> faces = boundaryFaces(mesh);
+Dirichlet resolveMeshFixtures(const core::Scenario& scenario, const TetMesh& mesh,
+                              const std::vector<BoundaryFace>& faces) {
   return assembleFixtures(
       scenario, mesh.nodes.size(),
       [&](std::size_t f) { return heldMeshNodes(scenario.fixtures[f].region, mesh, faces); }, "FEM node");

@@ -124,7 +124,7 @@ TEST(HeldFace, FemThickBandsClampFacesSoTheStretchStaysHomogeneous) {
   // 4 x 4 x 4 TET10: the bands (0.15 deep) hold the mid-edge nodes 0.125 in from each face.
   const dm::TetMesh mesh = dm::structuredBoxMesh(Vector3d(0, 0, 0), Vector3d(1, 1, 1), Eigen::Vector3i(4, 4, 4), 2);
   const dm::Dirichlet volume = dm::resolveFixtures(s, mesh.nodes);
-  const dm::Dirichlet faces = dm::resolveMeshFixtures(s, mesh);
+  const dm::Dirichlet faces = dm::resolveMeshFixtures(s, mesh, dm::boundaryFaces(mesh));
   EXPECT_LT(faces.index.size(), volume.index.size());
   dm::FemSolver solver(mesh, s);
   const dm::FemResult& r = solver.solve();

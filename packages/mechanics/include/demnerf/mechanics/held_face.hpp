@@ -60,7 +60,9 @@ double heldFaceDistance(const HeldFace& face, const Eigen::Vector3d& x, Eigen::V
 std::vector<int> heldMeshNodes(const core::Region& region, const TetMesh& mesh, const std::vector<BoundaryFace>& faces);
 
 /// The FEM's Dirichlet nodes: resolveFixtures with heldMeshNodes choosing each fixture's nodes.
-Dirichlet resolveMeshFixtures(const core::Scenario& scenario, const TetMesh& mesh);
+/// `faces` is the mesh's boundary (boundaryFaces), which the FEM's loads use too.
+Dirichlet resolveMeshFixtures(const core::Scenario& scenario, const TetMesh& mesh,
+                              const std::vector<BoundaryFace>& faces);
 
 /// The particles a fixture holds, for the solvers that constrain particles rather than a lift
 /// (the DEM's penalty boundary, the PINN): a face holds its cluster's surface particles inside the
