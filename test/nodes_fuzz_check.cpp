@@ -33,6 +33,16 @@
 
 namespace {
 
+// A call that fails in roscpp's transport while the node lives (seen once in six full runs, on
+// /nerf_node/extract, the node answering before and after) is tried once more: these tests are
+// about the nodes' answers, and a node that died still fails expectBothAlive.
+template <typename Service>
+bool callService(const std::string& name, Service& service) {
+  if (ros::service::call(name, service)) return true;
+  ros::WallDuration(0.2).sleep();
+  return ros::service::call(name, service);
+}
+
 using dem_nerf_test::StatusRecorder;
 using namespace dem_nerf_fuzz;  // the generators and the fixture (fuzz_messages.hpp, nodes_fuzz_fixture.hpp)
 
@@ -103,7 +113,7 @@ class NodesFuzzReproducers : public NodesFuzz {
     dem_nerf::Solve solve;
     solve.request.load_case = goodLoadCase();
     solve.request.load_case.fixtures = {everything};
-    ASSERT_TRUE(ros::service::call("/dem_node/solve", solve));
+    ASSERT_TRUE(callService("/dem_node/solve", solve));
     EXPECT_FALSE(solve.response.ok);
     EXPECT_NE(solve.response.message.find("every one of the"), std::string::npos) << solve.response.message;
     dem.mark();
@@ -129,13 +139,13 @@ class NodesFuzzReproducers : public NodesFuzz {
     solve.request.load_case.fixtures[0].region.pose.position.z = -0.01;
     solve.request.load_case.fixtures[0].region.size.x = solve.request.load_case.fixtures[0].region.size.y =
         solve.request.load_case.fixtures[0].region.size.z = 0.001;
-    ASSERT_TRUE(ros::service::call("/dem_node/solve", solve));
+    ASSERT_TRUE(callService("/dem_node/solve", solve));
     EXPECT_FALSE(solve.response.ok);
     EXPECT_NE(solve.response.message.find("rigid-body"), std::string::npos) << solve.response.message;
     // A zero load answers zero displacement (on ~solve and on ~wrench alike).
     solve.request.load_case = goodLoadCase();
     solve.request.load_case.loads[0].wrench.force.z = 0.0;
-    ASSERT_TRUE(ros::service::call("/dem_node/solve", solve));
+    ASSERT_TRUE(callService("/dem_node/solve", solve));
     EXPECT_TRUE(solve.response.ok) << solve.response.message;
     EXPECT_EQ(solve.response.max_displacement, 0.0);
     restoreGoodState();
@@ -176,7 +186,7 @@ class NodesFuzzReproducers : public NodesFuzz {
       render.request.camera_info = cameraInfo(side, side);
       render.request.pose.orientation.w = 1.0;
       const auto start = std::chrono::steady_clock::now();
-      ASSERT_TRUE(ros::service::call("/nerf_node/render", render));
+      ASSERT_TRUE(callService("/nerf_node/render", render));
       EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 2.0);
       EXPECT_FALSE(render.response.ok);
     }
@@ -188,7 +198,7 @@ class NodesFuzzReproducers : public NodesFuzz {
       dem_nerf::LoadModel load;
       load.request.path = path;
       const auto start = std::chrono::steady_clock::now();
-      ASSERT_TRUE(ros::service::call("/nerf_node/load", load));
+      ASSERT_TRUE(callService("/nerf_node/load", load));
       const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       std::remove(path.c_str());
       EXPECT_FALSE(load.response.ok);
@@ -271,7 +281,7 @@ TEST_F(NodesFuzz, MutatedServiceRequests) {
   for (int i = 0; i < 100; ++i) {
     dem_nerf::Solve solve;
     solve.request.load_case = mutateLoadCase(rng);
-    ASSERT_TRUE(ros::service::call("/dem_node/solve", solve)) << "case " << i;
+    ASSERT_TRUE(callService("/dem_node/solve", solve)) << "case " << i;
     if (!solve.response.ok) EXPECT_NE(solve.response.message, "") << "case " << i;
   }
   expectBothAlive("100 mutated ~solve requests");
@@ -280,7 +290,7 @@ TEST_F(NodesFuzz, MutatedServiceRequests) {
     render.request.camera_info = mutateCameraInfo(rng);
     render.request.pose.orientation.w = coin(rng) ? 1.0 : evil(rng, 1.0);
     render.request.pose.position.x = coin(rng) ? 0.0 : evil(rng, 0.1);
-    ASSERT_TRUE(ros::service::call("/nerf_node/render", render)) << "case " << i;
+    ASSERT_TRUE(callService("/nerf_node/render", render)) << "case " << i;
     EXPECT_NE(render.response.message, "");
   }
   for (int i = 0; i < 40; ++i) {
@@ -288,22 +298,22 @@ TEST_F(NodesFuzz, MutatedServiceRequests) {
     const char* samplers[] = {"", "grid", "poisson", "random", "nonsense"};
     extract.request.sampler = samplers[below(rng, 5)];
     extract.request.spacing = evil(rng, 0.01);
-    ASSERT_TRUE(ros::service::call("/nerf_node/extract", extract));
+    ASSERT_TRUE(callService("/nerf_node/extract", extract));
     EXPECT_FALSE(extract.response.ok);  // no model yet
   }
   for (int i = 0; i < 60; ++i) {
     dem_nerf::LoadModel load;
     const char* paths[] = {"", "/", "/dev/null", "/nonexistent/model.nerf", "/proc/self/status", "\x01"};
     load.request.path = paths[below(rng, 6)];
-    ASSERT_TRUE(ros::service::call("/nerf_node/load", load));
+    ASSERT_TRUE(callService("/nerf_node/load", load));
     EXPECT_FALSE(load.response.ok);
     dem_nerf::SaveModel save;
     save.request.path = paths[below(rng, 6)];
-    ASSERT_TRUE(ros::service::call("/nerf_node/save", save));
+    ASSERT_TRUE(callService("/nerf_node/save", save));
     EXPECT_FALSE(save.response.ok);
   }
   std_srvs::Trigger reset;
-  ASSERT_TRUE(ros::service::call("/nerf_node/reset", reset));
+  ASSERT_TRUE(callService("/nerf_node/reset", reset));
   expectBothAlive("mutated ~render, ~extract, ~load, ~save, ~reset requests");
 }
 
