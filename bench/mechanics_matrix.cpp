@@ -18,7 +18,7 @@
 //   time_limit=60 (s per cell)   mlp_iters=1500 mlp_lbfgs=0 (paper's DEM: Adam, then L-BFGS, per load step)
 //   fem_div=0 (FEM column's mesh size = smallest dimension / fem_div; 0: the CLI's automatic size)
 //   ref_div=8 conv_div=6 (reference FEM cells: smallest dimension / these)   ref_time_limit=1800
-//   nerf_seconds=60   seed=1   yaml=PATH (with one scenario: solve this YAML instead of
+//   nerf_seconds=60 (or nerf_cpu_seconds=120: a CPU budget, for a machine shared with other work)   seed=1   yaml=PATH (with one scenario: solve this YAML instead of
 //             config/scenarios/<name>.yaml, on the same surface; e.g. thinner fixture bands)
 //   out=DIR (default output/bench/mechanics_matrix: reference and NeRF caches, CSV/MD/PNG)
 //   docs=DIR (default docs/ for a full run, none for quick=1 or a subset: also write
@@ -72,7 +72,7 @@ std::vector<std::string> split(const std::string& text) {
 struct Settings {
   std::vector<std::string> scenarios, samplers, sources, solvers;
   std::vector<int> divisors;
-  double time_limit = 60.0, ref_time_limit = 1800.0, fem_div = 0.0, nerf_seconds = 60.0;
+  double time_limit = 60.0, ref_time_limit = 1800.0, fem_div = 0.0, nerf_seconds = 60.0, nerf_cpu_seconds = 0.0;
   double grid_spacings = 2.0, extension_fill = 0.75, body_cells = 0.0;  // the dem_cells / dem_ext columns
   int boundary_levels = 1, mlp_iters = 1500, mlp_lbfgs = 0, ref_div = 8, conv_div = 6, seed = 1;
   std::string out, docs, title, yaml, config;
@@ -97,6 +97,7 @@ Settings parseSettings(int argc, char** argv) {
   s.ref_time_limit = num("ref_time_limit", s.ref_time_limit);
   s.fem_div = num("fem_div", s.fem_div);
   s.nerf_seconds = num("nerf_seconds", s.nerf_seconds);
+  s.nerf_cpu_seconds = num("nerf_cpu_seconds", s.nerf_cpu_seconds);
   s.mlp_iters = static_cast<int>(num("mlp_iters", s.mlp_iters));
   s.mlp_lbfgs = static_cast<int>(num("mlp_lbfgs", s.mlp_lbfgs));
   s.ref_div = static_cast<int>(num("ref_div", s.ref_div));
@@ -380,7 +381,8 @@ int main(int argc, char** argv) {
         if (source == "exact") {
           surface = mc->surface();
         } else if (source == "nerf") {
-          surface = bench::nerfSurface({mc->nerf_scene, s.out + "/nerf_" + mc->nerf_scene, s.nerf_seconds});
+          surface = bench::nerfSurface(
+              {mc->nerf_scene, s.out + "/nerf_" + mc->nerf_scene, s.nerf_seconds, s.nerf_cpu_seconds});
         } else {
           throw core::Error("unknown source '" + source + "': use exact or nerf");
         }

@@ -1,6 +1,9 @@
 #include "mechanics_matrix_nerf.hpp"
 
+#include <algorithm>
+#include <chrono>
 #include <cstdio>
+#include <ctime>
 #include <filesystem>
 
 #include "demnerf/core/dataset.hpp"
@@ -10,6 +13,29 @@
 #include "demnerf/render/synthetic_scene.hpp"
 
 namespace demnerf::bench {
+namespace {
+
+double processCpuSeconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
+
+/// Trains until the process has spent `cpu_budget` CPU seconds on steps; the learning-rate schedule
+/// decays over the steps expected at the rate measured so far (as nerf_train --cpu-seconds does).
+nerf::TrainProgress trainForCpuSeconds(nerf::Trainer& trainer, double cpu_budget) {
+  const double start = processCpuSeconds();
+  const auto wall0 = std::chrono::steady_clock::now();
+  for (double used = 0; used < cpu_budget; used = processCpuSeconds() - start) {
+    if (trainer.iteration() > 0 && used > 0) {
+      const auto expected = static_cast<std::int64_t>(trainer.iteration() * cpu_budget / used);
+      trainer.setBudget({0, std::max<std::int64_t>(1, expected)});
+    }
+    trainer.step(1);
+  }
+  nerf::TrainProgress progress;
+  progress.iteration = trainer.iteration();
+  progress.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  return progress;
+}
+
+}  // namespace
 
 core::TriangleMesh nerfSurface(const NerfSurfaceConfig& config) {
   namespace fs = std::filesystem;
@@ -30,11 +56,18 @@ core::TriangleMesh nerfSurface(const NerfSurfaceConfig& config) {
   const core::Dataset dataset = core::loadDataset(data);
   nerf::Trainer trainer(nerf::NerfConfig{}, nerf::datasetBox(dataset), dataset.aabb_scale);
   trainer.addFrames(dataset.train);
-  nerf::StopCriteria stop;
-  stop.seconds = config.seconds;
-  const nerf::TrainProgress progress = trainer.train(stop, {}, false);
-  std::fprintf(stderr, "NeRF %s: %lld iterations in %.1f s, train PSNR %.2f dB\n", config.scene.c_str(),
-               static_cast<long long>(progress.iteration), progress.seconds, progress.psnr);
+  nerf::TrainProgress progress;
+  if (config.cpu_seconds > 0) {
+    progress = trainForCpuSeconds(trainer, config.cpu_seconds);
+    std::fprintf(stderr, "NeRF %s: %lld iterations in %.0f CPU s (%.1f s wall)\n", config.scene.c_str(),
+                 static_cast<long long>(progress.iteration), config.cpu_seconds, progress.seconds);
+  } else {
+    nerf::StopCriteria stop;
+    stop.seconds = config.seconds;
+    progress = trainer.train(stop, {}, false);
+    std::fprintf(stderr, "NeRF %s: %lld iterations in %.1f s, train PSNR %.2f dB\n", config.scene.c_str(),
+                 static_cast<long long>(progress.iteration), progress.seconds, progress.psnr);
+  }
   // `demnerf extract` (opacity 0.15 along the clearest axis), with a face budget.
   const nerf::NerfModel& model = trainer.model();
   const nerf::Box box = model.bounds();

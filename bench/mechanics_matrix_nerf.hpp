@@ -12,6 +12,8 @@ struct NerfSurfaceConfig {
   std::string scene;       ///< tbar | cuboid (render::SynthConfig::scene)
   std::string work_dir;    ///< views, model and the cached mesh (created if absent)
   double seconds = 60.0;   ///< NeRF training time, as `demnerf train --seconds`
+  double cpu_seconds = 0;  ///< > 0: a budget of CPU seconds instead (2 x seconds on an idle 2-core
+                           ///< machine; what a machine shared with other work inflates least)
   int resolution = 192;    ///< density cells along the longest side, `demnerf extract`'s default
   int max_faces = 20000;   ///< edge-collapse budget: the CGAL reference meshes stay quick
 };
