@@ -1,0 +1,52 @@
+#pragma once
+// A supernodal (multifrontal) sparse Cholesky for the grid Newton's Hessians (shifted_cholesky.hpp).
+// Private to packages/mechanics/src.
+//
+// Why not Eigen's SimplicialLDLT: it eliminates one column at a time with scalar sparse updates.
+// A 3-D grid's factor under nested dissection is dominated by its top separators, whose columns
+// share one row structure: dense blocks of hundreds to thousands of columns. Grouped into
+// supernodes they are factorised by Eigen's blocked dense kernels (LLT, triangular solve, rank-k
+// update), which run several times faster than the scalar loop on the same operation count (the
+// T-bar's 12k-unknown Hessian: measured in docs/dem_feature_grid.md, "Speed"). The symbolic part
+// (elimination tree, column counts) is Eigen's own analysis, kept for every factorisation of one
+// pattern.
+
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+#include <vector>
+
+namespace demnerf::mechanics {
+
+class SupernodalCholesky {
+ public:
+  /// The symbolic analysis of A's lower triangle (column-major, already in elimination order):
+  /// supernodes, their row structures and the assembly tree. Returns the factorisation's operation
+  /// count (sum of squared column counts, as ShiftedCholesky compares orders by).
+  double analyse(const Eigen::SparseMatrix<double>& lower);
+
+  /// L L^T = A for A with the analysed pattern (lower triangle); false when A is not positive
+  /// definite (a non-positive pivot), and the factor is then unusable.
+  bool factorise(const Eigen::SparseMatrix<double>& lower);
+
+  /// A^-1 b with the last successful factorisation.
+  Eigen::VectorXd solve(const Eigen::VectorXd& b) const;
+
+  Eigen::Index rows() const { return n_; }
+  /// Supernodes and the factor's stored entries (dense panels): for the verbose report and tests.
+  long supernodes() const { return static_cast<long>(first_.size()) - 1; }
+  double storedEntries() const;
+
+ private:
+  void buildSupernodes(const Eigen::VectorXi& parent, const Eigen::VectorXi& below);
+  void buildStructures(const Eigen::SparseMatrix<double>& lower, const Eigen::VectorXi& parent);
+  bool factoriseSupernode(const Eigen::SparseMatrix<double>& lower, long s, std::vector<Eigen::MatrixXd>& updates,
+                          std::vector<int>& position);
+
+  Eigen::Index n_ = 0;
+  std::vector<int> first_;                  // supernode s holds columns first_[s] .. first_[s + 1] - 1
+  std::vector<std::vector<int>> rows_;      // its row structure: its own columns, then the rows below
+  std::vector<std::vector<long>> children_;  // supernodes whose update goes to s
+  std::vector<Eigen::MatrixXd> panels_;     // rows_[s].size() x width: L11 (lower) over L21
+};
+
+}  // namespace demnerf::mechanics
