@@ -32,6 +32,9 @@ namespace demnerf::mechanics {
 class ShiftedCholesky {
  public:
   /// Node i's dofs 3 i .. 3 i + 2 are eliminated in the order the nodes appear in `order`.
+  /// Threads of the sparse factorisation (supernodal_cholesky.hpp; default 1).
+  void setThreads(int threads) { supernodal_.setThreads(threads); }
+
   void setNodeOrder(const std::vector<int>& order) {
     Eigen::VectorXi indices(3 * static_cast<Eigen::Index>(order.size()));
     for (std::size_t k = 0; k < order.size(); ++k)

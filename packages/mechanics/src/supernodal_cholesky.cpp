@@ -3,6 +3,8 @@
 #include <Eigen/Cholesky>
 #include <Eigen/SparseCholesky>
 #include <algorithm>
+#include <atomic>
+#include <thread>
 #include <stdexcept>
 
 namespace demnerf::mechanics {
@@ -29,6 +31,7 @@ double SupernodalCholesky::analyse(const Eigen::SparseMatrix<double>& lower) {
       throw std::logic_error("supernodal Cholesky: a supernode's structure disagrees with the column counts");
   }
   panels_.assign(first_.size() - 1, Eigen::MatrixXd());
+  splitSubtrees();
   return tree.below().cast<double>().squaredNorm();
 }
 
@@ -55,10 +58,12 @@ void SupernodalCholesky::buildStructures(const Eigen::SparseMatrix<double>& lowe
   for (long s = 0; s < count; ++s)
     for (int j = first_[s]; j < first_[s + 1]; ++j) owner[j] = static_cast<int>(s);
   children_.assign(count, {});
+  parent_.clear();
   rows_.assign(count, {});
   std::vector<long> mark(n_, -1);
   for (long s = 0; s < count; ++s) {
     const int f = first_[s], l = first_[s + 1] - 1;
+    parent_.push_back(parent(l) >= 0 ? owner[parent(l)] : -1);
     if (parent(l) >= 0) children_[owner[parent(l)]].push_back(s);
     std::vector<int>& rows = rows_[s];
     for (int j = f; j <= l; ++j) rows.push_back(j);
@@ -82,13 +87,59 @@ double SupernodalCholesky::storedEntries() const {
   return sum;
 }
 
+// Subtrees for the threads: starting from the roots, the heaviest subtree is opened (it joins the
+// part factorised after the threads, its children become candidates) while it outweighs the rest,
+// then the candidates are dealt largest first to the least loaded thread.
+void SupernodalCholesky::splitSubtrees() {
+  const long count = supernodes();
+  std::vector<double> work(count, 0.0);
+  for (long s = 0; s < count; ++s) {
+    const double m = static_cast<double>(rows_[s].size()), w = first_[s + 1] - first_[s];
+    work[s] += w * m * m;
+    if (parent_[s] >= 0) work[parent_[s]] += work[s];
+  }
+  group_.assign(count, -1);
+  std::vector<long> candidates;
+  for (long s = 0; s < count; ++s)
+    if (parent_[s] < 0) candidates.push_back(s);
+  std::vector<char> opened(count, 0);
+  for (int round = 0; round < 64 && !candidates.empty(); ++round) {
+    const auto heaviest = std::max_element(candidates.begin(), candidates.end(), [&](long a, long b) { return work[a] < work[b]; });
+    double rest = 0.0;
+    for (long c : candidates) rest += c == *heaviest ? 0.0 : work[c];
+    if (work[*heaviest] <= rest || children_[*heaviest].empty()) break;
+    const long top = *heaviest;
+    opened[top] = 1;
+    candidates.erase(heaviest);
+    candidates.insert(candidates.end(), children_[top].begin(), children_[top].end());
+  }
+  std::sort(candidates.begin(), candidates.end(), [&](long a, long b) { return work[a] > work[b]; });
+  std::vector<double> load(threads_, 0.0);
+  for (long c : candidates) {
+    const long t = std::min_element(load.begin(), load.end()) - load.begin();
+    group_[c] = static_cast<int>(t);
+    load[t] += work[c];
+  }
+  for (long s = count - 1; s >= 0; --s)  // parents come after their children
+    if (!opened[s] && group_[s] < 0 && parent_[s] >= 0) group_[s] = group_[parent_[s]];
+}
+
 bool SupernodalCholesky::factorise(const Eigen::SparseMatrix<double>& lower) {
   if (lower.rows() != n_ || lower.cols() != n_) throw std::logic_error("supernodal Cholesky: factorise() before analyse()");
   std::vector<Eigen::MatrixXd> updates(first_.size() - 1);
-  std::vector<int> position(n_, -1);
-  for (long s = 0; s < supernodes(); ++s)
-    if (!factoriseSupernode(lower, s, updates, position)) return false;
-  return true;
+  std::atomic<bool> failed{false};
+  // Group g's supernodes in column order (children first); g = -1 after the threads' subtrees.
+  const auto run = [&](int g) {
+    std::vector<int> position(n_, -1);
+    for (long s = 0; s < supernodes() && !failed; ++s)
+      if (group_[s] == g && !factoriseSupernode(lower, s, updates, position)) failed = true;
+  };
+  std::vector<std::thread> pool;
+  for (int g = 1; g < threads_; ++g) pool.emplace_back(run, g);
+  run(0);
+  for (auto& t : pool) t.join();
+  if (!failed) run(-1);
+  return !failed;
 }
 
 // The front of supernode s: A's columns and the children's updates (extend-add), its dense

@@ -31,14 +31,25 @@ class SupernodalCholesky {
   /// A^-1 b with the last successful factorisation.
   Eigen::VectorXd solve(const Eigen::VectorXd& b) const;
 
+  /// Threads of factorise(): independent subtrees of the assembly tree (nested dissection's two
+  /// halves) run side by side, the separators above them after; the factor is the same bit for bit.
+  void setThreads(int threads) { threads_ = threads < 1 ? 1 : threads; }
+
   Eigen::Index rows() const { return n_; }
   /// Supernodes and the factor's stored entries (dense panels): for the verbose report and tests.
   long supernodes() const { return static_cast<long>(first_.size()) - 1; }
   double storedEntries() const;
+  /// Supernodes factorised by the threads' subtrees (the rest after they join): for tests.
+  long threadedSupernodes() const {
+    long count = 0;
+    for (int g : group_) count += g >= 0 && threads_ > 1;
+    return count;
+  }
 
  private:
   void buildSupernodes(const Eigen::VectorXi& parent, const Eigen::VectorXi& below);
   void buildStructures(const Eigen::SparseMatrix<double>& lower, const Eigen::VectorXi& parent);
+  void splitSubtrees();
   bool factoriseSupernode(const Eigen::SparseMatrix<double>& lower, long s, std::vector<Eigen::MatrixXd>& updates,
                           std::vector<int>& position);
 
@@ -47,6 +58,9 @@ class SupernodalCholesky {
   std::vector<std::vector<int>> rows_;      // its row structure: its own columns, then the rows below
   std::vector<std::vector<long>> children_;  // supernodes whose update goes to s
   std::vector<Eigen::MatrixXd> panels_;     // rows_[s].size() x width: L11 (lower) over L21
+  std::vector<long> parent_;                // the supernode s's update goes to (-1: a root)
+  std::vector<int> group_;                  // which thread factorises s (-1: after the threads join)
+  int threads_ = 1;
 };
 
 }  // namespace demnerf::mechanics

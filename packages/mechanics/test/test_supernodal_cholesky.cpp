@@ -4,6 +4,7 @@
 // and a refusal, not a wrong factor, when the matrix is not positive definite.
 #include <gtest/gtest.h>
 
+#include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <cmath>
@@ -83,6 +84,39 @@ TEST(SupernodalCholesky, RefactorisesNewValuesOnTheAnalysedPattern) {
   ASSERT_TRUE(supernodal.factorise(B));
   const Eigen::VectorXd b = rightHandSide(B.rows());
   EXPECT_LT((B.selfadjointView<Eigen::Lower>() * supernodal.solve(b) - b).norm(), 1e-10 * b.norm());
+}
+
+// Independent subtrees are factorised on threads: the factor must be the serial one bit for bit,
+// and a non-positive pivot inside a thread's subtree must still be reported.
+// In AMD's order (a bushy tree, like nested dissection's; the lattice's natural order is a chain).
+Eigen::SparseMatrix<double> amdOrdered(const Eigen::SparseMatrix<double>& lower) {
+  Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> p;
+  Eigen::AMDOrdering<int>()(Eigen::SparseMatrix<double>(lower.selfadjointView<Eigen::Lower>()), p);
+  Eigen::SparseMatrix<double> out(lower.rows(), lower.cols());
+  out.selfadjointView<Eigen::Lower>() = lower.selfadjointView<Eigen::Lower>().twistedBy(p.inverse());
+  // The permuted columns' rows are unsorted, which Eigen's selfadjoint product (the residual
+  // below) does not allow; a round trip through row-major storage sorts them.
+  return Eigen::SparseMatrix<double>(Eigen::SparseMatrix<double, Eigen::RowMajor>(out));
+}
+
+TEST(SupernodalCholesky, FactorisesTheSameOnThreads) {
+  const Eigen::SparseMatrix<double> A = amdOrdered(latticeMatrix(9, 8, 7, 1.05));
+  const Eigen::VectorXd b = rightHandSide(A.rows());
+  SupernodalCholesky serial;
+  serial.analyse(A);
+  ASSERT_TRUE(serial.factorise(A));
+  const Eigen::VectorXd x = serial.solve(b);
+  for (int threads : {2, 3}) {
+    SupernodalCholesky parallel;
+    parallel.setThreads(threads);
+    parallel.analyse(A);
+    ASSERT_TRUE(parallel.factorise(A));
+    EXPECT_GT(parallel.threadedSupernodes(), parallel.supernodes() / 2);
+    EXPECT_EQ((parallel.solve(b) - x).cwiseAbs().maxCoeff(), 0.0) << threads << " threads";
+    EXPECT_LT((A.selfadjointView<Eigen::Lower>() * x - b).norm(), 1e-10 * b.norm());
+    const Eigen::SparseMatrix<double> indefinite = amdOrdered(latticeMatrix(9, 8, 7, 1.05, true));
+    EXPECT_FALSE(parallel.factorise(indefinite));
+  }
 }
 
 TEST(SupernodalCholesky, RefusesAMatrixThatIsNotPositiveDefinite) {
