@@ -7,7 +7,8 @@
 // share one row structure: dense blocks of hundreds to thousands of columns. Grouped into
 // supernodes they are factorised by Eigen's blocked dense kernels (LLT, triangular solve, rank-k
 // update), which run several times faster than the scalar loop on the same operation count (the
-// T-bar's 12k-unknown Hessian: measured in docs/dem_feature_grid.md, "Speed"). The symbolic part
+// T-bar's 5.6k-unknown Hessian: docs/dem_feature_grid.md, "Supernodal factorisation and both
+// cores"). The symbolic part
 // (elimination tree, column counts) is Eigen's own analysis, kept for every factorisation of one
 // pattern.
 
