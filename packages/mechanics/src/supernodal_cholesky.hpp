@@ -7,8 +7,8 @@
 // share one row structure: dense blocks of hundreds to thousands of columns. Grouped into
 // supernodes they are factorised by Eigen's blocked dense kernels (LLT, triangular solve, rank-k
 // update) with the same operation count: on the T-bar's 5.6k-unknown Hessian the linear solves
-// (factorisations, Lanczos and CG together) took 7.3 s instead of 16.1 s (docs/dem_feature_grid.md,
-// "Supernodal factorisation and both cores"). The symbolic part (elimination tree, column counts)
+// (factorisations, Lanczos and CG together) took 7.3 s instead of 16.1 s (wall, loaded machine;
+// docs/dem_feature_grid.md, "Supernodal factorisation and both cores"). The symbolic part (elimination tree, column counts)
 // is Eigen's own analysis, kept for every factorisation of one pattern.
 
 #include <Eigen/Core>
