@@ -29,6 +29,7 @@ void DemSolver::Impl::buildGridQuadrature() {
       CellQuadratureConfig cq;
       cq.points_per_axis = config.grid.gauss_points;
       cq.boundary_levels = config.grid.boundary_levels;
+      cq.threads = config.threads;
       CellQuadrature q = cellQuadrature(cloud, *grid, cq);
       gq_points = std::move(q.points);
       gq_volume = std::move(q.weights);

@@ -11,6 +11,7 @@
 #include "extended_unknowns.hpp"
 #include "fill_reducing_order.hpp"
 #include "grid_field_energy.hpp"
+#include "parallel_for.hpp"
 #include "shifted_cholesky.hpp"
 
 namespace demnerf::mechanics {
@@ -103,12 +104,13 @@ bool startingPoint(const GridFieldEnergy& energy, const Unknowns& unknowns, cons
 
 // The linear solver of these unknowns: the cache's when it was made for them, else a new one.
 ShiftedCholesky& linearSolver(GridNewtonCache& cache, const GridFieldEnergy& energy, const Unknowns& unknowns,
-                              const BsplineGrid& grid) {
+                              const BsplineGrid& grid, int threads) {
   std::vector<long> unknown_nodes = unknownNodes(energy, unknowns);
   if (!cache.state || cache.state->unknown_nodes != unknown_nodes) {
     cache.state = std::make_unique<GridNewtonCache::State>();
     cache.state->unknown_nodes = std::move(unknown_nodes);
     cache.state->solver.setNodeOrder(eliminationOrder(energy, unknowns, grid));
+    cache.state->solver.setThreads(assemblyThreads(threads));
   }
   return cache.state->solver;
 }
@@ -144,7 +146,7 @@ GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const Hyper
     return out;
   }
   GridNewtonCache local;
-  ShiftedCholesky& solver = linearSolver(config.cache ? *config.cache : local, energy, unknowns, grid);
+  ShiftedCholesky& solver = linearSolver(config.cache ? *config.cache : local, energy, unknowns, grid, config.threads);
   const auto store = [&] {
     for (std::size_t l = 0; l < active.size(); ++l) C.row(active[l]) = x.c.segment<3>(3 * l).transpose();
   };

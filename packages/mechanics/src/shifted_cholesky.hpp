@@ -12,6 +12,8 @@
 #include <limits>
 #include <vector>
 
+#include "supernodal_cholesky.hpp"
+
 namespace demnerf::mechanics {
 
 // Solves (H + shift |diag H|) x = b with a shift that makes H positive definite: 0 when Lanczos
@@ -30,6 +32,9 @@ namespace demnerf::mechanics {
 class ShiftedCholesky {
  public:
   /// Node i's dofs 3 i .. 3 i + 2 are eliminated in the order the nodes appear in `order`.
+  /// Threads of the sparse factorisation (supernodal_cholesky.hpp; default 1).
+  void setThreads(int threads) { supernodal_.setThreads(threads); }
+
   void setNodeOrder(const std::vector<int>& order) {
     Eigen::VectorXi indices(3 * static_cast<Eigen::Index>(order.size()));
     for (std::size_t k = 0; k < order.size(); ++k)
@@ -60,6 +65,15 @@ class ShiftedCholesky {
     const double mean = std::max(jacobi_.mean(), std::numeric_limits<double>::min());
     for (Eigen::Index k = 0; k < jacobi_.size(); ++k) jacobi_(k) = 1.0 / std::sqrt(std::max(jacobi_(k), 1e-14 * mean));
     const Eigen::SparseMatrix<double> scaled = scaledCopy(H);
+    // A Hessian that needed no shift at the last factorisation usually needs none now (a Newton run
+    // near its minimum): the unshifted factorisation is tried before Lanczos. It succeeds only when
+    // H is positive definite, where Lanczos (Ritz values lie above the lowest eigenvalue) would
+    // also have said "no shift", so the answer is the same; a failure goes on as below.
+    if (factorisations_ > 0 && last_shift_ == 0.0) {
+      factorised_ = factorise(scaled);
+      ++factorisations_;
+      if (factorised_) return factorSolve(b);
+    }
     // The shift that makes H positive definite is about minus its most negative eigenvalue, which
     // Lanczos finds from above in a few dozen products: one or two factorisations instead of a
     // search by decades from 0 (a 30 % compression's first step took 7 factorisations, 48 s).
@@ -137,31 +151,27 @@ class ShiftedCholesky {
   // speed (3000 unknowns: 7 s against 2 s) and cannot stop at the first negative pivot of a failed
   // shift, so a factor denser than kDenseShare of a full one is factorised dense.
   bool factorise(const Eigen::SparseMatrix<double>& H) {
-    Eigen::SparseMatrix<double> ordered;
     if (!analysed_) {
-      if (ordered_) ordered = permuted(H);
       amd_ldlt_.analyzePattern(H);
       double sparse_ops = amd_ldlt_.operations();
       if (ordered_) {
-        ordered_ldlt_.analyzePattern(ordered);
+        ordered_ldlt_.analyzePattern(permuted(H));
         ordered_ = ordered_ldlt_.operations() < amd_ldlt_.operations();
         sparse_ops = std::min(sparse_ops, ordered_ldlt_.operations());
       }
+      // The order kept is applied explicitly; the factor itself is supernodal
+      // (supernodal_cholesky.hpp: the same operations, in dense blocks).
+      if (!ordered_) permutation_ = amd_ldlt_.permutationP();
       const double n = static_cast<double>(H.rows());
       dense_ = H.rows() <= kMaxDense && sparse_ops > kDenseShare * n * n * n / 3.0;
+      if (!dense_) supernodal_.analyse(permuted(H));
       analysed_ = true;
     }
     if (dense_) {
       dense_llt_.compute(Eigen::MatrixXd(H));
       return dense_llt_.info() == Eigen::Success;
     }
-    if (ordered_) {
-      if (ordered.size() == 0) ordered = permuted(H);
-      ordered_ldlt_.factorize(ordered);
-      return ordered_ldlt_.info() == Eigen::Success && ordered_ldlt_.vectorD().minCoeff() > 0;
-    }
-    amd_ldlt_.factorize(H);
-    return amd_ldlt_.info() == Eigen::Success && amd_ldlt_.vectorD().minCoeff() > 0;
+    return supernodal_.factorise(permuted(H));
   }
 
   // (S (S H S + shift)^-1 S) b: the last factorisation's inverse in the unscaled unknowns.
@@ -170,10 +180,8 @@ class ShiftedCholesky {
     Eigen::VectorXd x;
     if (dense_)
       x = dense_llt_.solve(sb);
-    else if (!ordered_)
-      x = amd_ldlt_.solve(sb);
     else
-      x = permutation_.transpose() * Eigen::VectorXd(ordered_ldlt_.solve(permutation_ * sb));
+      x = permutation_.transpose() * supernodal_.solve(permutation_ * sb);
     return jacobi_.cwiseProduct(x);
   }
 
@@ -212,6 +220,7 @@ class ShiftedCholesky {
   CountingLdlt<Eigen::NaturalOrdering<int>> ordered_ldlt_;
   Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> permutation_;
   Eigen::LLT<Eigen::MatrixXd, Eigen::Lower> dense_llt_;
+  SupernodalCholesky supernodal_;
   Eigen::VectorXd jacobi_;  // S: the inverse square roots of |diag H| at the last factorisation
   bool ordered_ = false, analysed_ = false, factorised_ = false, dense_ = false;
   double last_shift_ = 0.0;  // relative to each column's diagonal

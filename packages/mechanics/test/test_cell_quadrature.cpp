@@ -176,3 +176,24 @@ TEST(CellQuadrature, ResolvesTheFacesBelowTheProbeSpacing) {
     }
   }
 }
+
+// The cells are split between threads (the inside test's probes are most of a T-bar solve's
+// setup); the quadrature must not depend on how many: same points, same weights, same order.
+TEST(CellQuadrature, IsTheSameOnAnyNumberOfThreads) {
+  const Vector3d lo(0, 0, 0), hi(0.2, 0.1, 0.1);
+  const auto cloud = randomBox(lo, hi, 2000, 7);
+  const dm::BsplineGrid grid(lo, hi, 0.023, 2);
+  dm::CellQuadratureConfig one;
+  one.threads = 1;
+  const dm::CellQuadrature serial = dm::cellQuadrature(cloud, grid, one);
+  for (int threads : {2, 3}) {
+    dm::CellQuadratureConfig config;
+    config.threads = threads;
+    const dm::CellQuadrature q = dm::cellQuadrature(cloud, grid, config);
+    ASSERT_EQ(q.points.size(), serial.points.size());
+    for (std::size_t p = 0; p < q.points.size(); ++p) {
+      EXPECT_EQ(q.points[p], serial.points[p]);
+      EXPECT_EQ(q.weights[p], serial.weights[p]);
+    }
+  }
+}

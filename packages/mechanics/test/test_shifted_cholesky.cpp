@@ -70,5 +70,23 @@ TEST(ShiftedCholesky, SolvesAPositiveDefiniteBadlyScaledSystemExactly) {
   EXPECT_LT(r.norm(), 1e-9 * b.norm());
 }
 
+
+// After an unshifted factorisation the next one is tried unshifted before Lanczos; when the new
+// Hessian is indefinite that attempt fails and the shift must still be found as on a first call.
+TEST(ShiftedCholesky, AnIndefiniteHessianAfterAPositiveOneIsStillShifted) {
+  const Eigen::SparseMatrix<double> positive = chainWithTinyColumns(2000, 3, 1e-4, 0.5);
+  const Eigen::SparseMatrix<double> indefinite = chainWithTinyColumns(2000, 3, 1e-4, 2.0);
+  const Eigen::VectorXd b = rightHandSide(positive.rows());
+  ShiftedCholesky solver;
+  solver.solve(positive, b, 1e-6);
+  ASSERT_EQ(solver.lastShift(), 0.0);
+  const Eigen::VectorXd x = solver.solve(indefinite, b, 1e-6);
+  EXPECT_GT(solver.lastShift(), 0.0);
+  EXPECT_GT(b.dot(x), 0.0);
+  Eigen::SparseMatrix<double> shifted = indefinite;
+  shifted.diagonal() += solver.lastShift() * indefinite.diagonal().cwiseAbs();
+  EXPECT_LT((b - shifted.selfadjointView<Eigen::Lower>() * x).norm(), 1e-8 * b.norm());
+}
+
 }  // namespace
 }  // namespace demnerf::mechanics

@@ -24,6 +24,8 @@ struct CellQuadratureConfig {
   /// their Gauss points, the cut ones of the last level keep theirs with weights fitted to their
   /// inside part (moment fitting on a 6^3 lattice of probes).
   int boundary_levels = 2;
+  /// Threads that run the cells (0: every core); the points come out in the same order on any count.
+  int threads = 0;
 };
 
 struct CellQuadrature {
