@@ -53,9 +53,13 @@ struct DemOutputNewtonConfig {
   int iterations = 12;   ///< Newton iterations per solve (12)
 };
 
-/// L-BFGS polish per load step on the fixed particles, with the exploit guard.
+/// L-BFGS per load step (strong-Wolfe line search): a polish on the fixed particles with the
+/// exploit guard, or, with `sample_iterations` > 0 and adam.jitter, the training itself on the
+/// jittered quadrature, a fresh draw every sample_iterations iterations (a fixed draw is exploited:
+/// docs/dem_feature_grid.md, "The MLP alone").
 struct DemLbfgsConfig {
   int iterations = 0;              ///< 0: off (0)
+  int sample_iterations = 0;       ///< iterations per jitter draw; 0: one polish on the fixed particles (0)
   int history = 50;                ///< history length (50)
   double max_energy_drop = 10.0;   ///< reject a polish lowering Pi by more than this x |Pi| (10)
   double max_growth = 10.0;        ///< ...or growing max |u| by more than this factor (10)
