@@ -45,6 +45,11 @@ if(NOT COMMAND demnerf_mechanics_matrix_bench)
     target_link_libraries(mechanics_matrix PRIVATE demnerf_mechanics demnerf_geometry demnerf_render demnerf_nerf)
     target_compile_definitions(mechanics_matrix PRIVATE DEMNERF_ROOT="${DEMNERF_ROOT_DIR}")
     set_target_properties(mechanics_matrix PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin/bench")
+    # mechanics_mlp: the paper's DEM (MLP alone) on one matrix cloud, with its error-vs-time curve.
+    add_executable(mechanics_mlp ${DEMNERF_ROOT_DIR}/bench/mechanics_mlp.cpp ${DEMNERF_ROOT_DIR}/bench/mechanics_matrix_cases.cpp)
+    target_link_libraries(mechanics_mlp PRIVATE demnerf_mechanics demnerf_geometry demnerf_render)
+    target_compile_definitions(mechanics_mlp PRIVATE DEMNERF_ROOT="${DEMNERF_ROOT_DIR}")
+    set_target_properties(mechanics_mlp PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin/bench")
   endfunction()
 endif()
 demnerf_mechanics_matrix_bench()  # standalone mechanics build: only when render was added too

@@ -15,7 +15,8 @@
 //             dem_particles: the earlier default DEM; dem_cells, dem_ext: cell quadrature
 //             without / with extended B-splines at 2 particle spacings, with
 //             grid_spacings=2 ext_fill=0.75 levels=1, or body_cells=N: cells from the body's volume)
-//   time_limit=60 (s per cell)   mlp_iters=1500 mlp_lbfgs=0 (paper's DEM: Adam, then L-BFGS, per load step)
+//   time_limit=60 (s per cell)   mlp_iters=N mlp_lbfgs=N (paper's DEM: Adam steps, then L-BFGS iterations, per
+//             load step; default: paperDemConfig()'s, as `--method mlp`)
 //   fem_div=0 (FEM column's mesh size = smallest dimension / fem_div; 0: the CLI's automatic size)
 //   ref_div=8 conv_div=6 (reference FEM cells: smallest dimension / these)   ref_time_limit=1800
 //   nerf_seconds=60 (or nerf_cpu_seconds=120: a CPU budget, for a machine shared with other work)   seed=1   yaml=PATH (with one scenario: solve this YAML instead of
@@ -74,7 +75,7 @@ struct Settings {
   std::vector<int> divisors;
   double time_limit = 60.0, ref_time_limit = 1800.0, fem_div = 0.0, nerf_seconds = 60.0, nerf_cpu_seconds = 0.0;
   double grid_spacings = 2.0, extension_fill = 0.75, body_cells = 0.0;  // the dem_cells / dem_ext columns
-  int boundary_levels = 1, mlp_iters = 1500, mlp_lbfgs = 0, ref_div = 8, conv_div = 6, seed = 1;
+  int boundary_levels = 1, mlp_iters = -1, mlp_lbfgs = -1, ref_div = 8, conv_div = 6, seed = 1;
   std::string out, docs, title, yaml, config;
   std::vector<std::string> rows;
   bool partial = false;
@@ -151,11 +152,9 @@ dm::SimulateOptions solverOptions(const std::string& solver, const Settings& s, 
     o.dem.grid.boundary_levels = s.boundary_levels;
     o.dem.grid.extension_fill = solver == "dem_ext" ? s.extension_fill : 0.0;
   } else if (solver == "dem_mlp" || solver == "dem_mlp_exact") {
-    o.dem.grid.spacings = 0;  // the paper's DEM: the MLP alone, trained by Adam
-    o.dem.grid.body_cells = 0;
-    o.dem.grid.cell = 0;
-    o.dem.adam.iterations = s.mlp_iters;
-    o.dem.lbfgs.iterations = s.mlp_lbfgs;
+    o.dem = dm::paperDemConfig();  // `--method mlp`, with the penalty boundary or the exact one
+    if (s.mlp_iters >= 0) o.dem.adam.iterations = s.mlp_iters;
+    if (s.mlp_lbfgs >= 0) o.dem.lbfgs.iterations = s.mlp_lbfgs;
     o.dem.boundary.kind = solver == "dem_mlp" ? dm::DemConfig::Boundary::kPenalty : dm::DemConfig::Boundary::kExact;
   } else {
     throw core::Error("unknown solver column '" + solver + "': use fem, dem, dem_particles, dem_cells, dem_ext, dem_mlp or dem_mlp_exact");

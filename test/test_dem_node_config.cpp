@@ -118,7 +118,7 @@ TEST(DemNodeConfig, ParametersOverrideTheSolverConfigFile) {
 TEST(DemNodeConfig, MethodAndParametricModeUseTheLibrarysPresets) {
   const dm::SimulateOptions mlp = DemNodeConfig::fromParameters(ParameterMap{{"dem_method", "mlp"}}).simulateOptions();
   EXPECT_EQ(dm::solverConfigYaml(mlp), dm::solverConfigYaml(dm::solverDefaults("mlp")));
-  EXPECT_EQ(mlp.dem.boundary.kind, dm::DemConfig::Boundary::kPenalty);
+  EXPECT_EQ(mlp.dem.lbfgs.iterations, dm::paperDemConfig().lbfgs.iterations);
 
   const dm::DemConfig parametric =
       DemNodeConfig::fromParameters(
@@ -127,7 +127,7 @@ TEST(DemNodeConfig, MethodAndParametricModeUseTheLibrarysPresets) {
           .dem;
   EXPECT_TRUE(parametric.parametric.enabled);
   EXPECT_EQ(parametric.grid.spacings, 0.0);
-  EXPECT_EQ(parametric.adam.iterations, dm::paperDemConfig().adam.iterations);
+  EXPECT_EQ(parametric.adam.iterations, dm::kParametricAdamIterations);
   EXPECT_EQ(parametric.parametric.load_range_max, 1.5);
 }
 

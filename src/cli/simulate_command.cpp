@@ -133,9 +133,10 @@ const char* usage() {
          "DEM:\n"
          "  --method grid|mlp      default grid: the MLP plus a B-spline feature grid sized from the body,\n"
          "                         integrated in its cells, solved by Newton; mlp: the paper's DEM, the MLP\n"
-         "                         alone trained by Adam\n"
-         "                         ("
-      << mlp.adam.iterations << " steps per load step) with the penalty boundary\n"
+         "                         alone ("
+      << mlp.network.width << " x " << mlp.network.depth << ") trained by "
+      << mlp.lbfgs.iterations << " L-BFGS iterations on jittered particles,\n"
+         "                         fixtures held exactly (--boundary penalty: the paper's W_u)\n"
          "  --grid-body-cells N    default "
       << number(d.dem.grid.body_cells)
       << ": cell = (V / N)^(1/3) from the body's volume (never finer than the particles)\n"
@@ -150,10 +151,11 @@ const char* usage() {
       << d.dem.adam.iterations << ", mlp " << mlp.adam.iterations << ", PINN " << d.pinn.adam_iterations
       << ")\n"
          "  --width W, --depth D   MLP hidden units per layer and hidden layers (default "
-      << d.dem.network.width << ", " << d.dem.network.depth << "; PINN " << d.pinn.width << ", " << d.pinn.depth
+      << d.dem.network.width << ", " << d.dem.network.depth << "; mlp " << mlp.network.width << ", "
+      << mlp.network.depth << "; PINN " << d.pinn.width << ", " << d.pinn.depth
       << ")\n"
-         "  --boundary exact|penalty  fixtures held exactly, u = g + D z (grid default), or by the paper's\n"
-         "                         penalty W_u MSE_u (mlp default; the feature grid needs exact)\n"
+         "  --boundary exact|penalty  fixtures held exactly, u = g + D z (the default of both methods), or by\n"
+         "                         the paper's penalty W_u MSE_u (MLP alone; the feature grid needs exact)\n"
          "  --newton               Newton on the MLP's output layer (MLP alone, exact boundary; default off)\n"
          "  --load-range MIN,MAX   parametric: train the MLP once over these load fractions (contains 1), then\n"
          "                         `demnerf predict --load-scale` answers any of them (default off)\n"

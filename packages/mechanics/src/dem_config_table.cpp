@@ -42,6 +42,8 @@ std::vector<Field> trainingFields(DemConfig& c) {
       integer(n, "every", c.output_newton.every, 0, kMany, "output-layer Newton every N Adam steps (0: only after)"),
       integer(n, "iterations", c.output_newton.iterations, 0, kMany, "output-layer Newton iterations"),
       integer(l, "iterations", c.lbfgs.iterations, 0, kMany, "L-BFGS polish per load step (0: off)"),
+      integer(l, "sample_iterations", c.lbfgs.sample_iterations, 0, kMany,
+              "L-BFGS iterations per jittered quadrature draw (0: one polish on the fixed particles)"),
       integer(l, "history", c.lbfgs.history, 1, kMany, "L-BFGS history length"),
       number(l, "max_energy_drop", c.lbfgs.max_energy_drop, 0, true, kInf,
              "reject a polish that lowers the energy more than this x |Pi|"),

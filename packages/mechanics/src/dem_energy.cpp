@@ -25,13 +25,17 @@ Tensor det3(const Tensor& F) {
 
 // Stochastic quadrature in the band next to the fixtures: every Adam step moves each of those
 // quadrature points within its cell (see DemConfig::jitter). The lift of the moved points is
-// analytic and costs ~0.1 us per point. x and lift become the volume particles with the band moved.
-void DemSolver::Impl::jitterBand(Tensor& x, Tensor (&lift)[4]) const {
-  const long nb = n_band, nf = xv.size(0) - nb;
+// analytic and costs ~0.1 us per point. x and lift become the volume particles with the band moved;
+// `mirrored` gives each band point two, at +-offset (the band's rows twice: +, then -).
+void DemSolver::Impl::jitterBand(Tensor& x, Tensor (&lift)[4], bool mirrored) const {
+  const long nb = n_band, nf = xv.size(0) - nb, rows = mirrored ? 2 * nb : nb;
   std::uniform_real_distribution<float> u01(-1.0f, 1.0f);
-  Tensor xb = torch::empty({nb, 3}, torch::kFloat64);
-  Tensor lb[4] = {torch::empty({nb, 3}, torch::kFloat64), torch::empty({nb, 3, 3}, torch::kFloat64),
-                  torch::empty({nb, 3}, torch::kFloat64), torch::empty({nb, 3, 3}, torch::kFloat64)};
+  std::vector<Eigen::Vector3d> offset(nb, Eigen::Vector3d::Zero());
+  for (long i = 0; i < nb; ++i)
+    if (band_jitter[i] > 0) offset[i] = band_jitter[i] * Eigen::Vector3d(u01(rng), u01(rng), u01(rng));
+  Tensor xb = torch::empty({rows, 3}, torch::kFloat64);
+  Tensor lb[4] = {torch::empty({rows, 3}, torch::kFloat64), torch::empty({rows, 3, 3}, torch::kFloat64),
+                  torch::empty({rows, 3}, torch::kFloat64), torch::empty({rows, 3, 3}, torch::kFloat64)};
   double* px = xb.data_ptr<double>();
   double* pg = lb[0].data_ptr<double>();
   double* pgg = lb[1].data_ptr<double>();
@@ -40,9 +44,8 @@ void DemSolver::Impl::jitterBand(Tensor& x, Tensor (&lift)[4]) const {
   const bool exact = config.boundary.kind == DemConfig::Boundary::kExact;
   Eigen::Vector3d g, D;
   Eigen::Matrix3d gg, gD;
-  for (long i = 0; i < nb; ++i) {
-    Eigen::Vector3d p = band_points[i];
-    if (band_jitter[i] > 0) p += band_jitter[i] * Eigen::Vector3d(u01(rng), u01(rng), u01(rng));
+  for (long i = 0; i < rows; ++i) {
+    const Eigen::Vector3d p = band_points[i % nb] + (i < nb ? 1.0 : -1.0) * offset[i % nb];
     for (int c = 0; c < 3; ++c) px[3 * i + c] = p(c);
     if (!exact) continue;
     dirichletLiftAt(scenario, p, length, g, gg, D, gD, &held);
@@ -60,13 +63,38 @@ void DemSolver::Impl::jitterBand(Tensor& x, Tensor (&lift)[4]) const {
     for (int k = 0; k < 4; ++k) lift[k] = torch::cat({lift_v[k].narrow(0, 0, nf), lb[k].to(dtype)});
 }
 
+// A mirrored draw (each band point at +-offset, half its weight at each): the offsets' first-order
+// effect on every cell's energy cancels, so a draw's quadrature noise, which the sampled L-BFGS
+// chases, is second order in the offset (Beam3D: the tip wandered +-2 % between one-point draws).
+DemSolver::Impl::JitterDraw DemSolver::Impl::drawJitter() const {
+  JitterDraw draw;
+  jitterBand(draw.x, draw.lift, true);
+  const long nf = xv.size(0) - n_band;
+  const auto twice = [&](const Tensor& t) {
+    const Tensor half = 0.5 * t.narrow(0, nf, n_band);
+    return torch::cat({t.narrow(0, 0, nf), half, half});
+  };
+  draw.vol = twice(vol);
+  draw.body = twice(body);
+  return draw;
+}
+
 // Loss at load fraction `scale`: Pi / energy_scale (+ penalty). Sets the potential energy and min J.
-Tensor DemSolver::Impl::loss(double scale, double* energy, double* min_J, bool jitter) const {
+// `draw` (a drawJitter()) replaces the volume particles; else `jitter` draws a fresh band.
+Tensor DemSolver::Impl::loss(double scale, double* energy, double* min_J, bool jitter, const JitterDraw* draw) const {
   Tensor x = xv;
   Tensor lift_j[4];
   const Tensor* lift = lift_v;
   const GridSupport* support = grid ? &grid_v : nullptr;
-  if (jitter && n_band > 0) {
+  const Tensor* weights = &vol;
+  const Tensor* body_forces = &body;
+  if (draw) {
+    x = draw->x;
+    weights = &draw->vol;
+    body_forces = &draw->body;
+    if (config.boundary.kind == DemConfig::Boundary::kExact) lift = draw->lift;
+    support = nullptr;
+  } else if (jitter && n_band > 0) {
     jitterBand(x, lift_j);
     if (config.boundary.kind == DemConfig::Boundary::kExact) lift = lift_j;
     support = nullptr;  // the jittered points' grid support is computed from x
@@ -75,7 +103,7 @@ Tensor DemSolver::Impl::loss(double scale, double* energy, double* min_J, bool j
   const Tensor F = gu + eye3;
   const Tensor J = det3(F);
   const Tensor psi = torch_support::neoHookeanEnergyDensity(J, (F * F).sum({1, 2}), *material, scenario.material.model);
-  Tensor pi = (psi * vol).sum() - scale * (body * uv).sum();
+  Tensor pi = (psi * *weights).sum() - scale * (*body_forces * uv).sum();
   if (xs.size(0) > 0) {
     auto [us, unused] = displacement(xs, lift_s, false, scale, grid ? &grid_s : nullptr);
     pi = pi - scale * (traction_area * us).sum();

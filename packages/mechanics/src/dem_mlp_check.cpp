@@ -203,7 +203,11 @@ void DemSolver::Impl::checkMlpAnswer(const MlpCheck& check) const {
 std::string DemSolver::Impl::mlpAdvice() const {
   std::ostringstream text;
   text << "The MLP was trained by " << config.adam.iterations << " Adam steps"
-       << (config.lbfgs.iterations > 0 ? " and an L-BFGS polish" : "") << " per load step on " << xv.size(0)
+       << (config.lbfgs.iterations == 0          ? ""
+           : config.lbfgs.sample_iterations > 0 ? " and " + std::to_string(config.lbfgs.iterations) +
+                                                     " L-BFGS iterations on jitter draws"
+                                               : std::string(" and an L-BFGS polish"))
+       << " per load step on " << xv.size(0)
        << " volume particles" << (config.boundary.kind == DemConfig::Boundary::kPenalty ? " with the penalty boundary" : "")
        << ". Likely causes: too few steps for this body and load (raise adam.iterations or lbfgs.iterations), "
           "a penalty weight that lets the fixtures slip (boundary.kind exact), or particles whose midpoint rule "

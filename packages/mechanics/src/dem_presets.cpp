@@ -7,13 +7,25 @@
 
 namespace demnerf::mechanics {
 
+// The MLP alone, solved as the DEM reference code solves it: full-batch L-BFGS with a strong-Wolfe
+// line search, the fixtures held exactly (u = g + D z, the reference code's u = x z), one load
+// step. Measured on Beam3D's 1,512 grid particles (docs/dem_feature_grid.md, "The MLP alone"): Adam
+// at 1500 steps leaves the tip 95 % off and the penalty boundary keeps L-BFGS 38 % off after 1000
+// evaluations; a fixed quadrature is exploited within 600 (energy 7x the FEM's), mirrored jitter
+// draws are not, and 800 iterations reach the tip to 0.3 % in 9 CPU-s. 30 x 3 in float32: twice
+// as fast an evaluation as 64 x 3 or float64, with the same answer.
 DemConfig paperDemConfig() {
   DemConfig config;
   config.grid.cell = 0.0;
   config.grid.spacings = 0.0;
   config.grid.body_cells = 0.0;
-  config.adam.iterations = 1500;
-  config.boundary.kind = DemConfig::Boundary::kPenalty;
+  config.network.width = 30;
+  config.network.depth = 3;
+  config.boundary.kind = DemConfig::Boundary::kExact;
+  config.adam.iterations = 0;
+  config.lbfgs.iterations = 800;
+  config.lbfgs.sample_iterations = 20;
+  config.load_steps = 1;
   return config;
 }
 
@@ -22,7 +34,7 @@ DemConfig parametricDemConfig(DemConfig config) {
   config.grid.cell = 0.0;
   config.grid.spacings = 0.0;
   config.grid.body_cells = 0.0;
-  if (config.adam.iterations == 0) config.adam.iterations = paperDemConfig().adam.iterations;
+  if (config.adam.iterations == 0) config.adam.iterations = kParametricAdamIterations;
   return config;
 }
 

@@ -90,8 +90,13 @@ struct DemSolver::Impl {
   double maxDisplacement(double scale) const;
   void checkLoadScale(double load_scale) const;
 
-  // dem_energy.cpp
-  Tensor loss(double scale, double* energy, double* min_J, bool jitter = false) const;
+  // dem_energy.cpp. A draw of the jittered quadrature: the volume particles with the band moved
+  // and the lift there, held over one run of the sampled L-BFGS; loss() uses it when given.
+  struct JitterDraw {
+    Tensor x, lift[4], vol, body;
+  };
+  JitterDraw drawJitter() const;
+  Tensor loss(double scale, double* energy, double* min_J, bool jitter = false, const JitterDraw* draw = nullptr) const;
   double energyWithAmplitude(double scale, double alpha);
   void rescaleOutput(double scale);
   std::vector<Tensor> snapshot() const { return torch_support::snapshot(parameters()); }
@@ -151,11 +156,12 @@ struct DemSolver::Impl {
  private:
   // The parts of the above (same files).
   Tensor loadInput(const Tensor& x, double scale) const;
-  void jitterBand(Tensor& x, Tensor (&lift)[4]) const;
+  void jitterBand(Tensor& x, Tensor (&lift)[4], bool mirrored = false) const;
   void orderBandLast(std::vector<long>& volume_particles);
   void buildParticleGridQuadrature();
   bool runAdam(double scale, int& iterations);
   void polishWithLbfgs(double scale, int& iterations, DemReport& report);
+  void trainWithSampledLbfgs(double scale, int& iterations);
 };
 
 /// Row-major tensor (rows x cols) -> Eigen, in double.

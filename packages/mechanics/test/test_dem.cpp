@@ -226,12 +226,15 @@ TEST(Dem, CrushingLoadIsReportedNotReturned) {
   EXPECT_THROW(dem.solve(), core::Error);
 }
 
-// The paper's DEM (the MLP alone, penalty boundary) on Beam3D's box with few particles, made fast:
-// a narrower network and fewer steps than paperDemConfig().
+// The MLP alone trained by Adam with the paper's penalty boundary (the earlier `--method mlp`),
+// made fast: a narrower network and few steps, no L-BFGS.
 dm::DemConfig smallPaperDem(int adam_iterations) {
   dm::DemConfig config = dm::paperDemConfig();
   config.network.width = 16;
   config.network.depth = 2;
+  config.boundary.kind = dm::DemConfig::Boundary::kPenalty;
+  config.lbfgs.iterations = 0;
+  config.load_steps = 0;
   config.adam.iterations = adam_iterations;
   config.threads = 1;
   return config;

@@ -56,6 +56,7 @@ TEST(SolverConfig, ShippedExampleListsEveryKeyAtItsDefault) {
 TEST(SolverConfig, WrittenSettingsReadBackTheSame) {
   dm::SimulateOptions options;
   options.dem = dm::paperDemConfig();
+  options.dem.boundary.kind = dm::DemConfig::Boundary::kPenalty;  // not a default
   options.dem.adam.jitter_band = 2.5;
   options.dem.lbfgs.tolerance = 3e-11;
   options.dem.network.seed = -7;
@@ -176,14 +177,16 @@ TEST(SolverConfig, TheDefaultDemIsTheFeatureGridAndThePaperDemTheMlp) {
   EXPECT_EQ(mlp.grid.spacings, 0.0);
   EXPECT_EQ(mlp.grid.body_cells, 0.0);
   EXPECT_EQ(mlp.grid.cell, 0.0);
-  EXPECT_GT(mlp.adam.iterations, 0);
-  EXPECT_EQ(mlp.boundary.kind, dm::DemConfig::Boundary::kPenalty);
+  EXPECT_EQ(mlp.adam.iterations, 0);
+  EXPECT_GT(mlp.lbfgs.iterations, 0);
+  EXPECT_GT(mlp.lbfgs.sample_iterations, 0);
+  EXPECT_EQ(mlp.boundary.kind, dm::DemConfig::Boundary::kExact);
   EXPECT_THROW(dm::demConfigForMethod("grids"), core::Error);
   const dm::DemConfig parametric = dm::parametricDemConfig(grid);
   EXPECT_TRUE(parametric.parametric.enabled);
   EXPECT_EQ(parametric.grid.spacings, 0.0);
   EXPECT_EQ(parametric.grid.body_cells, 0.0);
-  EXPECT_EQ(parametric.adam.iterations, mlp.adam.iterations);
+  EXPECT_EQ(parametric.adam.iterations, dm::kParametricAdamIterations);
   EXPECT_EQ(parametric.boundary.kind, dm::DemConfig::Boundary::kExact);
 
   // Each preset is a configuration the solver accepts (the grid alone refuses parametric mode and
@@ -201,7 +204,7 @@ TEST(SolverConfig, TheDefaultDemIsTheFeatureGridAndThePaperDemTheMlp) {
   std::ofstream(path) << "dem:\n  adam_iterations: 200\ncontrol:\n  time_limit: 0\n";
   const dm::SimulateOptions o = dm::solverDefaults("mlp", path);
   EXPECT_EQ(o.dem.adam.iterations, 200);
-  EXPECT_EQ(o.dem.boundary.kind, dm::DemConfig::Boundary::kPenalty);
+  EXPECT_EQ(o.dem.lbfgs.iterations, dm::paperDemConfig().lbfgs.iterations);
   EXPECT_EQ(o.control.time_limit, 0.0);
   std::remove(path.c_str());
 }

@@ -53,9 +53,13 @@ struct DemOutputNewtonConfig {
   int iterations = 12;   ///< Newton iterations per solve (12)
 };
 
-/// L-BFGS polish per load step on the fixed particles, with the exploit guard.
+/// L-BFGS per load step (strong-Wolfe line search): a polish on the fixed particles with the
+/// exploit guard, or, with `sample_iterations` > 0 and adam.jitter, the training itself on the
+/// jittered quadrature, a fresh draw every sample_iterations iterations (a fixed draw is exploited:
+/// docs/dem_feature_grid.md, "The MLP alone").
 struct DemLbfgsConfig {
   int iterations = 0;              ///< 0: off (0)
+  int sample_iterations = 0;       ///< iterations per jitter draw; 0: one polish on the fixed particles (0)
   int history = 50;                ///< history length (50)
   double max_energy_drop = 10.0;   ///< reject a polish lowering Pi by more than this x |Pi| (10)
   double max_growth = 10.0;        ///< ...or growing max |u| by more than this factor (10)
@@ -112,13 +116,17 @@ struct DemConfig {
   bool verbose = false;         ///< print training details (false)
 };
 
-/// The paper's DEM: the MLP alone (no feature grid) trained by Adam, 1500 iterations per load
-/// step, with the penalty boundary W_u * MSE_u. `demnerf simulate --method mlp`, dem_node
-/// ~dem_method mlp.
+/// The paper's DEM, the MLP alone (no feature grid), as the DEM reference code trains it: 800
+/// L-BFGS iterations on mirrored jitter draws (lbfgs.sample_iterations 20), the fixtures held
+/// exactly, a 30 x 3 tanh network, one load step. `demnerf simulate --method mlp`, dem_node
+/// ~dem_method mlp; the paper's penalty W_u * MSE_u is `boundary.kind: penalty` over it.
 DemConfig paperDemConfig();
 
+/// Adam steps of parametric mode when the config it starts from has none.
+constexpr int kParametricAdamIterations = 1500;
+
 /// `config` in parametric mode over its load range: the MLP alone (the feature grid does not take
-/// the load as an input), trained by Adam (paperDemConfig()'s iterations when config has none).
+/// the load as an input), trained by Adam (kParametricAdamIterations when config has none).
 DemConfig parametricDemConfig(DemConfig config);
 
 /// The DEM settings a user gave over a preset (`demnerf simulate` flags, dem_node parameters);

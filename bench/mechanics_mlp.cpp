@@ -1,0 +1,153 @@
+// The paper's DEM (the MLP alone, `--method mlp`, paperDemConfig()) on one scenario of the solver
+// matrix and one cloud from the product's samplers, with its convergence curve: every `every`
+// optimiser iterations the answer is read (tip or probe displacement, rel. L2 against the matrix's
+// cached reference FEM) with the wall and CPU seconds spent so far (the reading itself excluded),
+// then the solve's own verdict (its equilibrium check passes or refuses it).
+//
+// Usage: mechanics_mlp key=value ...
+//   scenario=beam3d (a name of mechanics_matrix's scenarios)  sampler=grid|poisson|random  div=6
+//   seed=1 (the sampler's)  config=FILE (solver settings over paperDemConfig(), as --config)
+//   boundary=penalty|exact (over both)  ref=DIR (a mechanics_matrix out= dir whose
+//   reference_<scenario>_exact_fine.ply holds these particles; none: no rel. L2)
+//   every=25 (iterations between readings; 0: none)  time_limit=60  verbose=0|1
+// Prints one line per reading and a summary line.
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "demnerf/core/error.hpp"
+#include "demnerf/core/ply.hpp"
+#include "demnerf/core/scenario.hpp"
+#include "demnerf/geometry/particle_sampler.hpp"
+#include "demnerf/mechanics/dem_solver.hpp"
+#include "demnerf/mechanics/process_settings.hpp"
+#include "demnerf/mechanics/solver_config_yaml.hpp"
+#include "mechanics_bench_common.hpp"
+#include "mechanics_matrix_cases.hpp"
+
+namespace dm = demnerf::mechanics;
+namespace core = demnerf::core;
+namespace geo = demnerf::geometry;
+namespace bench = demnerf::bench;
+using Eigen::Vector3d;
+
+namespace {
+
+using Arguments = std::map<std::string, std::string>;
+
+std::string text(const Arguments& a, const char* key, const std::string& fallback) {
+  const auto it = a.find(key);
+  return it != a.end() ? it->second : fallback;
+}
+
+double cpuSeconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
+
+// The reference displacement at each particle, read from a matrix reference on a union of clouds
+// that holds these particles (matched by their float positions, as the result PLY stores them).
+std::vector<Vector3d> referenceAt(const std::string& path, const core::ParticleCloud& cloud) {
+  if (path.empty() || !std::filesystem::exists(path)) return {};
+  const core::ResultField field = core::readResult(path);
+  std::map<std::tuple<float, float, float>, std::size_t> at;
+  for (std::size_t i = 0; i < field.size(); ++i) {
+    const Vector3d& p = field.positions[i];
+    at.emplace(std::make_tuple(float(p.x()), float(p.y()), float(p.z())), i);
+  }
+  std::vector<Vector3d> u;
+  for (const Vector3d& p : cloud.positions) {
+    const auto it = at.find(std::make_tuple(float(p.x()), float(p.y()), float(p.z())));
+    if (it == at.end()) {
+      std::fprintf(stderr, "%s does not hold these particles: no rel. L2\n", path.c_str());
+      return {};
+    }
+    u.push_back(field.displacements[it->second]);
+  }
+  return u;
+}
+
+struct Reading {
+  double tip = 0.0, rel_l2 = std::nan("");
+};
+
+Reading read(const dm::DemSolver& dem, const core::ParticleCloud& cloud, const bench::MatrixCase& mc,
+             const std::vector<Vector3d>& reference) {
+  Reading r;
+  const bool beam = mc.name == "beam3d";
+  const std::vector<Vector3d> at = dem.predict({beam ? Vector3d(4, 0.5, 0.5) : mc.probes.front().point});
+  r.tip = beam ? at[0].y() : at[0].norm();
+  if (!reference.empty()) r.rel_l2 = bench::relativeL2(dem.predict(cloud.positions), reference);
+  return r;
+}
+
+dm::DemConfig configFrom(const Arguments& a) {
+  dm::DemConfig config = dm::solverDefaults("mlp", text(a, "config", "")).dem;
+  const std::string boundary = text(a, "boundary", "");
+  if (boundary == "penalty") config.boundary.kind = dm::DemConfig::Boundary::kPenalty;
+  if (boundary == "exact") config.boundary.kind = dm::DemConfig::Boundary::kExact;
+  config.verbose = text(a, "verbose", "0") != "0";
+  return config;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  dm::keepLargeAllocationsInHeap();
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);
+  const Arguments a = bench::keyValueArguments(argc, argv);
+  const std::string name = text(a, "scenario", "beam3d");
+  bench::MatrixCase mc;
+  for (const bench::MatrixCase& c : bench::matrixCases())
+    if (c.name == name) mc = c;
+  if (mc.name.empty()) throw core::Error("unknown scenario '" + name + "'");
+  const core::Scenario scenario = core::loadScenario(std::string(DEMNERF_ROOT) + "/config/scenarios/" + name + ".yaml");
+  geo::SamplerConfig sampler;
+  sampler.method = geo::parseSamplingMethod(text(a, "sampler", "grid"));
+  const int div = std::stoi(text(a, "div", "6"));
+  sampler.spacing = mc.smallest / div;
+  sampler.seed = static_cast<std::uint64_t>(std::stoi(text(a, "seed", "1")));
+  const core::ParticleCloud cloud = geo::sampleParticles(mc.surface(), sampler);
+  const std::string ref_dir = text(a, "ref", "");
+  const std::vector<Vector3d> reference =
+      referenceAt(ref_dir.empty() ? "" : ref_dir + "/reference_" + name + "_exact_fine.ply", cloud);
+  const dm::DemConfig config = configFrom(a);
+  dm::DemSolver dem(cloud, scenario, config);
+  dm::SolveControl control;
+  control.time_limit = std::stod(text(a, "time_limit", "60"));
+  dem.setControl(control);
+  const auto start = std::chrono::steady_clock::now();
+  const double cpu0 = cpuSeconds();
+  double spent_wall = 0.0, spent_cpu = 0.0;  // in the readings, not the solve
+  const int every = std::stoi(text(a, "every", "25"));
+  dem.setProgressCallback([&](int iteration) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const double c0 = cpuSeconds();
+    const Reading r = read(dem, cloud, mc, reference);
+    std::printf("  it %5d  wall %7.2f s  cpu %7.2f s  tip %+.5f  rel L2 %.3f %%\n", iteration,
+                bench::since(start) - spent_wall, c0 - cpu0 - spent_cpu, r.tip, 100 * r.rel_l2);
+    spent_wall += bench::since(t0);
+    spent_cpu += cpuSeconds() - c0;
+  }, every);
+  std::printf("%s %s 1/%d: %zu particles, network %dx%d %s, %s boundary\n", name.c_str(), text(a, "sampler", "grid").c_str(),
+              div, cloud.size(), config.network.width, config.network.depth, config.network.activation.c_str(),
+              config.boundary.kind == dm::DemConfig::Boundary::kPenalty ? "penalty" : "exact");
+  std::string verdict = "converged";
+  dm::DemReport report;
+  try {
+    report = dem.solve();
+  } catch (const std::exception& e) {
+    verdict = std::string("REFUSED: ") + e.what();
+  }
+  const double wall = bench::since(start) - spent_wall, cpu = cpuSeconds() - cpu0 - spent_cpu;
+  const Reading r = read(dem, cloud, mc, reference);
+  std::printf("RESULT %s 1/%d: wall %.2f s, cpu %.2f s, its %d, energy %.6g, residual %.3g, tip %+.5f (%+.2f %% vs "
+              "-1.2054), rel L2 %.3f %%: %s\n",
+              name.c_str(), div, wall, cpu, report.iterations, report.energy, report.residual, r.tip,
+              100 * (r.tip / -1.2054 - 1), 100 * r.rel_l2, verdict.c_str());
+  return 0;
+}
