@@ -88,45 +88,6 @@ inline int gatherPairs(const float* level_table, const LevelRun& run, int m, flo
   return i;
 }
 
-// The scatter of a level-major gradient with two features (training's case): corner k of 8
-// points at a time, one 64-bit gather of their entries' gradient pairs, one FMA, one scatter.
-// Points of a group that share an entry (common on the coarse dense levels, where
-// consecutive samples of a ray fall in one cell) would lose all but one update in the
-// scatter, so such a group is added one point at a time, in point order. The sums differ
-// from the one-point-at-a-time order only by rounding and do not depend on the thread count.
-// Returns the points done (a multiple of 8); the caller's scalar loop takes the rest.
-inline int scatterPairs(float* level_grad, std::uint8_t* touched, const LevelRun& run, int m, const float* g) {
-  int i = 0;
-#if defined(__AVX512F__) && defined(__AVX512CD__) && defined(__AVX512VL__)
-  const __m512i dup = _mm512_set_epi32(7, 7, 6, 6, 5, 5, 4, 4, 3, 3, 2, 2, 1, 1, 0, 0);
-  double* pairs = reinterpret_cast<double*>(level_grad);
-  for (; i + 8 <= m; i += 8) {
-    const __m512 gp = _mm512_loadu_ps(g + 2 * i);
-    for (int k = 0; k < 8; ++k) {
-      const __m256i idx = _mm256_load_si256(reinterpret_cast<const __m256i*>(&run.index[k][i]));
-      const __m512 w = _mm512_permutexvar_ps(dup, _mm512_castps256_ps512(_mm256_load_ps(&run.weight[k][i])));
-      const __m256i conflicts = _mm256_conflict_epi32(idx);
-      if (_mm256_testz_si256(conflicts, conflicts)) {
-        const __m512 cur = _mm512_castpd_ps(_mm512_i32gather_pd(idx, pairs, 8));
-        _mm512_i32scatter_pd(pairs, idx, _mm512_castps_pd(_mm512_fmadd_ps(w, gp, cur)), 8);
-      } else {
-        for (int p = 0; p < 8; ++p) {
-          float* entry = level_grad + static_cast<std::size_t>(run.index[k][i + p]) * 2;
-          const float wp = run.weight[k][i + p];
-          entry[0] += wp * g[2 * (i + p)];
-          entry[1] += wp * g[2 * (i + p) + 1];
-        }
-      }
-      if (touched)
-        for (int p = 0; p < 8; ++p) touched[run.index[k][i + p]] = 1;
-    }
-  }
-#else
-  (void)level_grad, (void)touched, (void)run, (void)m, (void)g;
-#endif
-  return i;
-}
-
 // Levels form the outer loop so one level's table slice stays in cache across the points;
 // all corner addresses of a run are known (and prefetched) before the first gather, so the
 // cache misses overlap instead of queueing one after another.
@@ -180,11 +141,7 @@ void backwardLevelImpl(const HashGridLayout& layout, const float* positions, std
         for (int i = 0; i < m; ++i) __builtin_prefetch(level_grad + static_cast<std::size_t>(run.index[k][i]) * F, 1);
     }
     const float* g_first = grad + first * stride;
-    int i = 0;
-    if constexpr (F == 2) {
-      if (stride == 2 && !touched_list) i = scatterPairs(level_grad, level_touched, run, m, g_first);
-    }
-    for (; i < m; ++i) {
+    for (int i = 0; i < m; ++i) {
       const float* g = g_first + i * stride;
       for (int k = 0; k < 8; ++k) {
         const std::uint32_t e = run.index[k][i];

@@ -1,5 +1,6 @@
-// The hash table's training kernels (the vectorised level scatter and the table Adam) against
-// plain, one-value-at-a-time implementations written here from their definitions.
+// The hash table's training kernels (the level scatter the training step runs, without touched
+// flags, and the table Adam over non-zero gradients) against plain implementations written
+// here from their definitions.
 
 #include <gtest/gtest.h>
 
@@ -60,8 +61,8 @@ void referenceScatter(const HashGridLayout& layout, int level, const std::vector
 }
 
 // Runs of samples along rays (consecutive points a small step apart share cells on the coarse
-// levels: the vector scatter's conflict path) mixed with scattered points and clamped ones,
-// and a count that leaves a scalar tail after the 8-point groups and the 256-point runs.
+// levels, so entries sum many samples) mixed with scattered points and clamped ones, and a
+// count that is not a multiple of the kernel's 256-point runs.
 std::vector<float> rayLikePoints(int n, std::mt19937& rng) {
   std::uniform_real_distribution<float> u(-0.05f, 1.05f), step(-0.004f, 0.004f);
   std::vector<float> pos(3 * n);
