@@ -67,6 +67,7 @@ std::vector<Entry> entries(NerfConfig& c) {
       {"train", "target_samples", &c.train.target_samples},
       {"train", "min_rays", &c.train.min_rays},
       {"train", "max_rays", &c.train.max_rays},
+      {"train", "gradient_min_transmittance", &c.train.gradient_min_transmittance},
       {"train", "loss", &c.train.loss},
       {"train", "huber_delta", &c.train.huber_delta},
       {"train", "random_background", &c.train.random_background},
@@ -118,6 +119,8 @@ void NerfConfig::validate() const {
   check(train.epsilon > 0, "train.epsilon must be > 0");
   check(train.target_samples >= 64, "train.target_samples must be >= 64");
   check(train.min_rays >= 1 && train.max_rays >= train.min_rays, "train.min_rays must be >= 1 and <= train.max_rays");
+  check(train.gradient_min_transmittance >= 0 && train.gradient_min_transmittance < 1,
+        "train.gradient_min_transmittance must be in [0, 1)");
   check(train.loss == "l2" || train.loss == "huber", "train.loss must be 'l2' or 'huber', got '" + train.loss + "'");
   check(train.threads >= 0, "train.threads must be >= 0");
   for (double b : background) check(b >= 0 && b <= 1, "background components must be in [0, 1]");

@@ -33,6 +33,8 @@ struct Piece {
   float dt[NgpField::kChunk], sigma[NgpField::kChunk], rgb[3 * NgpField::kChunk];
   float t_before[NgpField::kChunk], c_upto[3 * NgpField::kChunk];
   int ray[NgpField::kChunk];  ///< block ray; -1 when the ray was opaque before this sample
+  int kept = 0;               ///< samples the backward takes (moved to rows 0..kept)
+  float g_sigma[NgpField::kChunk], g_rgb[3 * NgpField::kChunk];  ///< theirs, in that order
 };
 
 /// What one block of rays leaves for the reductions after the parallel pass. Workers take
@@ -61,7 +63,7 @@ struct Worker {
   std::vector<RayCursor> cursors = std::vector<RayCursor>(kTrainBlock);
   std::vector<RayAccum> acc = std::vector<RayAccum>(kTrainBlock);
   float grad_color[kTrainBlock][3], total_color[kTrainBlock][3];
-  float g_sigma[NgpField::kChunk], g_rgb[3 * NgpField::kChunk];
+  int keep[NgpField::kChunk];
 
   Piece& nextPiece() {
     while (pieces.size() <= used) pieces.push_back(std::make_unique<Piece>());
@@ -157,13 +159,49 @@ void blockLoss(const TrainConfig& train, const TrainRays& batch, Worker& st, std
   }
 }
 
+/// The per-sample gradients of one piece from its rays' totals, for the samples that still
+/// had min_t of the light (the others' gradients are at most that fraction of their ray's;
+/// those behind an opaque point have none), and their activations moved to the first rows so
+/// the MLP backward and the table scatter skip the rest.
+void selectAndCompact(const NgpField& field, Worker& st, Piece& pc, float min_t) {
+  int kept = 0;
+  for (int i = 0; i < pc.count; ++i) {
+    const int j = pc.ray[i];
+    if (j < 0 || pc.t_before[i] < min_t) continue;
+    const float alpha = 1.0f - std::exp(-pc.sigma[i] * pc.dt[i]);
+    const float w = pc.t_before[i] * alpha;
+    const float t_next = pc.t_before[i] * (1.0f - alpha);
+    for (int k = 0; k < 3; ++k) pc.g_rgb[3 * kept + k] = st.grad_color[j][k] * w;
+    pc.g_sigma[kept] = colorSigmaGradient(st.grad_color[j], pc.rgb + 3 * i, t_next, st.total_color[j],
+                                          pc.c_upto + 3 * i) * pc.dt[i];
+    st.keep[kept++] = i;
+  }
+  pc.kept = kept;
+  if (kept == pc.count) return;
+  // keep[] rises, so moving row keep[r] down to row r never overwrites a row still to move.
+  const auto rows = [&](float* a, int width) {
+    for (int r = 0; r < kept; ++r)
+      if (st.keep[r] != r) std::copy_n(a + static_cast<std::size_t>(st.keep[r]) * width, width, a + r * width);
+  };
+  const MlpLayout& dl = field.densityLayout();
+  const MlpLayout& cl = field.colorLayout();
+  rows(pc.ws.encoding.data(), field.hashLayout().outputDims());
+  for (int l = 0; l < dl.layers(); ++l) rows(pc.ws.density_act[l].data(), dl.dims[l + 1]);
+  rows(pc.ws.color_input.data(), cl.dims[0]);
+  for (int l = 0; l < cl.layers(); ++l) rows(pc.ws.color_act[l].data(), cl.dims[l + 1]);
+  rows(pc.unit, 3);
+}
+
 /// Backward of one block: per-sample gradients from the ray totals, the fused MLP backward,
 /// and the samples' encoding gradients queued for the table scatter.
-void backwardBlock(const NgpField& field, Worker& st, BlockResult& block) {
+void backwardBlock(const NgpField& field, Worker& st, BlockResult& block, float min_t) {
   const HashGridLayout& layout = field.hashLayout();
   const int enc_dims = layout.outputDims(), features = layout.features;
   std::int64_t block_samples = 0;
-  for (std::size_t p = 0; p < st.used; ++p) block_samples += st.pieces[p]->count;
+  for (std::size_t p = 0; p < st.used; ++p) {
+    selectAndCompact(field, st, *st.pieces[p], min_t);
+    block_samples += st.pieces[p]->kept;
+  }
   const std::size_t need = static_cast<std::size_t>(st.enc_count + block_samples);
   if (st.enc_pos.size() < 3 * need) st.enc_pos.resize(3 * need * 3 / 2);
   if (st.enc_grad.size() < enc_dims * need) st.enc_grad.resize(enc_dims * need * 3 / 2);
@@ -174,31 +212,18 @@ void backwardBlock(const NgpField& field, Worker& st, BlockResult& block) {
   std::int64_t done = 0;  // samples of the block already written
   for (std::size_t p = 0; p < st.used; ++p) {
     Piece& pc = *st.pieces[p];
-    for (int i = 0; i < pc.count; ++i) {
-      const int j = pc.ray[i];
-      if (j < 0) {
-        st.g_sigma[i] = 0.0f;
-        st.g_rgb[3 * i] = st.g_rgb[3 * i + 1] = st.g_rgb[3 * i + 2] = 0.0f;
-        continue;
-      }
-      const float alpha = 1.0f - std::exp(-pc.sigma[i] * pc.dt[i]);
-      const float w = pc.t_before[i] * alpha;
-      const float t_next = pc.t_before[i] * (1.0f - alpha);
-      for (int k = 0; k < 3; ++k) st.g_rgb[3 * i + k] = st.grad_color[j][k] * w;
-      st.g_sigma[i] = colorSigmaGradient(st.grad_color[j], pc.rgb + 3 * i, t_next, st.total_color[j],
-                                         pc.c_upto + 3 * i) * pc.dt[i];
-    }
-    field.backwardChunk(pc.count, pc.ws, st.g_sigma, st.g_rgb, block.grads, st.piece_grad.data());
-    for (int l = 0; l < layout.levels; ++l) {
-      float* dst = block_grad + (l * block_samples + done) * features;
-      for (int i = 0; i < pc.count; ++i)
-        for (int f = 0; f < features; ++f) dst[i * features + f] = st.piece_grad[i * enc_dims + l * features + f];
-    }
-    std::copy(pc.unit, pc.unit + 3 * pc.count, st.enc_pos.data() + 3 * st.enc_count);
-    st.enc_count += pc.count;
-    done += pc.count;
     st.encode_seconds += pc.ws.encode_seconds;
     pc.ws.encode_seconds = 0;
+    if (pc.kept == 0) continue;
+    field.backwardChunk(pc.kept, pc.ws, pc.g_sigma, pc.g_rgb, block.grads, st.piece_grad.data());
+    for (int l = 0; l < layout.levels; ++l) {
+      float* dst = block_grad + (l * block_samples + done) * features;
+      for (int i = 0; i < pc.kept; ++i)
+        for (int f = 0; f < features; ++f) dst[i * features + f] = st.piece_grad[i * enc_dims + l * features + f];
+    }
+    std::copy(pc.unit, pc.unit + 3 * pc.kept, st.enc_pos.data() + 3 * st.enc_count);
+    st.enc_count += pc.kept;
+    done += pc.kept;
   }
 }
 
@@ -213,7 +238,6 @@ TrainEngine::TrainEngine(NerfModel& model) : model_(model) {
   density_moments_.resize(f.densityWeights().size());
   color_moments_.resize(f.colorWeights().size());
   table_grad_.assign(f.table().size(), 0.0f);
-  touched_.assign(f.hashLayout().total_entries, 0);
 }
 
 StepResult TrainEngine::step(const TrainRays& batch, float learning_rate) {
@@ -290,7 +314,7 @@ void TrainEngine::runPasses(const TrainRays& batch) {
         block.sq_error = st.sq_error;
         const auto tp2 = Clock::now();
         p1 += std::chrono::duration<double>(tp2 - tp1).count();
-        backwardBlock(field, st, block);
+        backwardBlock(field, st, block, static_cast<float>(model_.config().train.gradient_min_transmittance));
         p2 += since(tp2);
       }
       if (w == 0) {
@@ -335,13 +359,14 @@ void TrainEngine::updateTable(const AdamHyper& h) {
           const float* grad = st.enc_grad.data() + block.enc_first * layout.outputDims() +
                               static_cast<std::int64_t>(l) * block.enc_count * features;
           hashEncodeBackwardLevel(layout, st.enc_pos.data() + 3 * block.enc_first, block.enc_count, grad, features,
-                                  table_grad_.data(), l, touched_.data());
+                                  table_grad_.data(), l);
         }
         table_seconds[l] = since(ts);
-        // A sequential sweep over the level's flags streams through memory; visiting a list
-        // of touched entries in scatter order would miss the cache on nearly every entry.
-        adamTouched(h, field.table().data(), table_grad_.data(), table_moments_, layout.offset[l],
-                    layout.offset[l] + layout.entries[l], features, touched_.data(), field.halfTable());
+        // A sequential sweep over the level's gradients streams through memory (visiting a
+        // list of touched entries in scatter order would miss the cache on nearly every
+        // entry); entries with a zero gradient are skipped, as instant-ngp's optimiser does.
+        adamNonzero(h, field.table().data(), table_grad_.data(), table_moments_, layout.offset[l] * features,
+                    (layout.offset[l] + layout.entries[l]) * features, field.halfTable());
       }
     }
   });

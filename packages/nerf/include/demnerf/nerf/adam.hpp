@@ -27,5 +27,12 @@ void adamSparse(const AdamHyper& h, float* params, float* grads, AdamMoments& mo
 /// half-precision copy of params (NgpField::halfTable()) and gets every updated value.
 void adamTouched(const AdamHyper& h, float* params, float* grads, AdamMoments& moments, std::int64_t begin,
                  std::int64_t end, int features, std::uint8_t* touched, std::uint16_t* half = nullptr);
+/// On the calling thread: updates the parameters in [begin, end) (floats, not entries) whose
+/// gradient is non-zero and zeroes the gradients, as instant-ngp's optimiser treats the hash
+/// table: an entry no sample reached, or whose gradients cancelled, keeps its value and
+/// moments. Needs no touched flags, so the scatter writes only gradients; 16 parameters per
+/// step where the build has AVX-512. `half` as for adamTouched.
+void adamNonzero(const AdamHyper& h, float* params, float* grads, AdamMoments& moments, std::int64_t begin,
+                 std::int64_t end, std::uint16_t* half = nullptr);
 
 }  // namespace demnerf::nerf

@@ -75,6 +75,10 @@ struct TrainConfig {
   /// nerf_node rostest's small cuboid; set it per scene (nerf_fox.yaml).
   int target_samples = 1 << 16;
   int min_rays = 512, max_rays = 1 << 14;
+  /// Samples behind which less than this much light is left get no gradient (their colour
+  /// still counts in the forward): their gradient is bounded by that fraction of the ray's, and
+  /// on the fox most marched samples lie there. 0: every sample that the ray reached.
+  double gradient_min_transmittance = 0.0;
   std::string loss = "l2";                 ///< l2 | huber
   double huber_delta = 0.1;
   bool random_background = true;           ///< for RGBA data (instant-ngp): new colour per ray

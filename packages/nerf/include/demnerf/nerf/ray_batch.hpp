@@ -86,7 +86,6 @@ class TrainEngine {
   std::int64_t iteration_ = 0;
   AdamMoments table_moments_, density_moments_, color_moments_;
   std::vector<float> table_grad_;
-  std::vector<std::uint8_t> touched_;
   std::vector<std::shared_ptr<ThreadState>> threads_;
   std::vector<std::shared_ptr<BlockState>> blocks_;  ///< per block of rays, reused across steps
   std::int64_t block_count_ = 0;                      ///< blocks of the latest batch
