@@ -19,11 +19,10 @@
 //             load step; default: paperDemConfig()'s, as `--method mlp`)
 //   fem_div=0 (FEM column's mesh size = smallest dimension / fem_div; 0: the CLI's automatic size)
 //   ref_div=8 conv_div=6 (reference FEM cells: smallest dimension / these)   ref_time_limit=1800
-//   nerf_seconds=60 (or nerf_cpu_seconds=120: a CPU budget, for a machine shared with other work)   seed=1   yaml=PATH (with one scenario: solve this YAML instead of
-//             config/scenarios/<name>.yaml, on the same surface; e.g. thinner fixture bands)
+//   nerf_seconds=60, or nerf_cpu_seconds=C (a CPU budget, 2 x seconds on an idle 2-core machine)
+//   seed=1   yaml=PATH (one scenario: this YAML instead of config/scenarios/<name>.yaml, same surface)
 //   out=DIR (default output/bench/mechanics_matrix: reference and NeRF caches, CSV/MD/PNG)
-//   docs=DIR (default docs/ for a full run, none for quick=1 or a subset: also write
-//             DIR/mechanics_matrix.{csv,md,png})
+//   docs=DIR (default docs/ for a full run, none for quick=1 or a subset): DIR/mechanics_matrix.{csv,md,png}
 //   config=FILE (the dem column's settings, as --config)   rows=SAMPLER/DIV,... (cells on these rows only)
 //   quick=1: beam3d, grid sampler, coarsest spacing, exact surface, solvers fem,dem (a smoke run)
 // Prints one line per cell as it finishes and the Markdown table at the end.
