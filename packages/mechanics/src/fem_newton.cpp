@@ -1,4 +1,4 @@
-// The FEM's solve: sparse Cholesky (factorisation reused while it still converges) or conjugate
+// The FEM's solve: a direct factor (fem_factor.hpp; reused while it still converges) or conjugate
 // gradients, Newton with a backtracking line search, and load steps halved on failure.
 #include <Eigen/IterativeLinearSolvers>
 #include <algorithm>
@@ -95,12 +95,11 @@ Eigen::VectorXd FemSolver::Impl::solveLinear(const Eigen::VectorXd& rhs, double 
     t0 = std::chrono::steady_clock::now();
   }
   if (!analysed) {
-    if (nd()) ldlt_nd.analyzePattern(K); else ldlt_amd.analyzePattern(K);
+    factor.configure(nd(), threads);
     analysed = true;
   }
-  if (nd()) ldlt_nd.factorize(K); else ldlt_amd.factorize(K);
+  factor_valid = factor.factorise(K);
   ++result.factorisations;
-  factor_valid = (nd() ? ldlt_nd.info() : ldlt_amd.info()) == Eigen::Success;
   if (!factor_valid) {
     if (result.factorisations == 1 && done == 0.0)
       throw SolveError(SolveFailure::kDegenerate,
@@ -111,9 +110,8 @@ Eigen::VectorXd FemSolver::Impl::solveLinear(const Eigen::VectorXd& rhs, double 
   }
   result.factorisation_seconds += secondsSince(t0);
   if (config.verbose && result.factorisations == 1)
-    std::cerr << "fem: " << n_free << " free dofs, nnz(K lower) " << K.nonZeros() << ", nnz(L) "
-              << (nd() ? ldlt_nd.matrixL().nestedExpression().nonZeros() : ldlt_amd.matrixL().nestedExpression().nonZeros())
-              << ", first factorisation " << secondsSince(t0) << " s\n";
+    std::cerr << "fem: " << n_free << " free dofs, nnz(K lower) " << K.nonZeros() << ", factor entries "
+              << factor.factorEntries() << ", first factorisation " << secondsSince(t0) << " s\n";
   t0 = std::chrono::steady_clock::now();
   Eigen::VectorXd x = factorSolve(rhs);
   result.solve_seconds += secondsSince(t0);

@@ -13,6 +13,7 @@
 
 #include "demnerf/mechanics/fem_solver.hpp"
 #include "demnerf/mechanics/material.hpp"
+#include "fem_factor.hpp"
 
 namespace demnerf::mechanics {
 
@@ -40,8 +41,7 @@ struct FemSolver::Impl {
   SparseMatrix K;
   std::vector<int> scatter;
   std::vector<std::vector<int>> colours;  // element ids; no two in a colour share a node
-  Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::NaturalOrdering<int>> ldlt_nd;  // nodes pre-ordered
-  Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt_amd;
+  FemFactor factor;  // of K (fem_factor.hpp)
   bool analysed = false, factor_valid = false;
   // The running solve's clock (null: no budget, no reports) and the last converged load fraction.
   SolveClock* clock = nullptr;
@@ -85,10 +85,7 @@ struct FemSolver::Impl {
   Eigen::VectorXd solveLinear(const Eigen::VectorXd& rhs, double eta);
   int locate(const Eigen::Vector3d& x, Eigen::Vector4d& L) const;
   bool nd() const { return config.ordering == FemConfig::Ordering::kNestedDissection; }
-  Eigen::VectorXd factorSolve(const Eigen::VectorXd& b) const {
-    if (nd()) return ldlt_nd.solve(b);
-    return ldlt_amd.solve(b);
-  }
+  Eigen::VectorXd factorSolve(const Eigen::VectorXd& b) const { return factor.solve(b); }
 };
 
 }  // namespace demnerf::mechanics
