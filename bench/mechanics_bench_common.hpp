@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <ctime>
 #include <map>
 #include <random>
 #include <string>
@@ -110,6 +111,9 @@ inline double relativeL2(const std::vector<Vector3d>& u, const std::vector<Vecto
 inline double since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
+
+/// This process's CPU seconds (all threads): budgets and figures that a shared machine inflates least.
+inline double processCpuSeconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
 
 inline double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());

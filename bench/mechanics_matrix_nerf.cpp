@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <ctime>
 #include <filesystem>
 
 #include "demnerf/core/dataset.hpp"
@@ -11,11 +10,10 @@
 #include "demnerf/geometry/mesh_from_density.hpp"
 #include "demnerf/nerf/trainer.hpp"
 #include "demnerf/render/synthetic_scene.hpp"
+#include "mechanics_bench_common.hpp"
 
 namespace demnerf::bench {
 namespace {
-
-double processCpuSeconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
 
 /// Trains until the process has spent `cpu_budget` CPU seconds on steps; the learning-rate schedule
 /// decays over the steps expected at the rate measured so far (as nerf_train --cpu-seconds does).

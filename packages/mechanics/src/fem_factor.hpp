@@ -29,10 +29,15 @@ class FemFactor {
   /// Factorises the lower triangle K (its pattern fixed after the first call); false when neither
   /// factor succeeds (a singular tangent).
   bool factorise(const SparseMatrix& K) {
-    if (!analysed_) analyse(K);
+    if (!analysed_) order(K);
     const SparseMatrix ordered = permuted(K);
+    if (!analysed_) supernodal_.analyse(ordered);
+    analysed_ = true;
     cholesky_ = supernodal_.factorise(ordered);
     if (cholesky_) return true;
+    // Only a tangent that is not positive definite gets here: its symbolic analysis waits for it.
+    if (!ldlt_analysed_) ldlt_.analyzePattern(ordered);
+    ldlt_analysed_ = true;
     ldlt_.factorize(ordered);
     return ldlt_.info() == Eigen::Success;
   }
@@ -49,18 +54,14 @@ class FemFactor {
   }
 
  private:
-  void analyse(const SparseMatrix& K) {
+  void order(const SparseMatrix& K) {
     if (pre_ordered_) {
       permutation_.setIdentity(K.rows());
-    } else {
-      Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::AMDOrdering<int>> amd;
-      amd.analyzePattern(K);
-      permutation_ = amd.permutationP();
+      return;
     }
-    const SparseMatrix ordered = permuted(K);
-    supernodal_.analyse(ordered);
-    ldlt_.analyzePattern(ordered);
-    analysed_ = true;
+    Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::AMDOrdering<int>> amd;
+    amd.analyzePattern(K);
+    permutation_ = amd.permutationP();
   }
 
   SparseMatrix permuted(const SparseMatrix& K) const {
@@ -72,7 +73,7 @@ class FemFactor {
   SupernodalCholesky supernodal_;
   Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::NaturalOrdering<int>> ldlt_;
   Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> permutation_;
-  bool pre_ordered_ = true, analysed_ = false, cholesky_ = false;
+  bool pre_ordered_ = true, analysed_ = false, ldlt_analysed_ = false, cholesky_ = false;
 };
 
 }  // namespace demnerf::mechanics

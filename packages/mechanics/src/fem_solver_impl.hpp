@@ -6,7 +6,6 @@
 //   fem_solver.cpp    the public FemSolver and interpolation at arbitrary points
 
 #include <Eigen/Sparse>
-#include <Eigen/SparseCholesky>
 #include <array>
 #include <memory>
 #include <vector>

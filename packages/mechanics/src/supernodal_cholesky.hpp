@@ -33,7 +33,11 @@ class SupernodalCholesky {
 
   /// Threads of factorise(): independent subtrees of the assembly tree (nested dissection's two
   /// halves) run side by side, the separators above them after; the factor is the same bit for bit.
-  void setThreads(int threads) { threads_ = threads < 1 ? 1 : threads; }
+  /// May come before or after analyse() (the subtrees are dealt again for the new count).
+  void setThreads(int threads) {
+    threads_ = threads < 1 ? 1 : threads;
+    if (!parent_.empty()) splitSubtrees();
+  }
 
   Eigen::Index rows() const { return n_; }
   /// Supernodes and the factor's stored entries (dense panels): for the verbose report and tests.

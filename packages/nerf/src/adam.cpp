@@ -36,42 +36,6 @@ void adamDense(const AdamHyper& h, float* params, float* grads, AdamMoments& mom
   });
 }
 
-void adamSparse(const AdamHyper& h, float* params, float* grads, AdamMoments& moments,
-                const std::vector<std::int64_t>& entries, int features, std::uint8_t* touched) {
-  const Step s(h);
-  float* m = moments.m.data();
-  float* v = moments.v.data();
-  at::parallel_for(0, static_cast<std::int64_t>(entries.size()), 2048, [&](std::int64_t begin, std::int64_t end) {
-    for (std::int64_t k = begin; k < end; ++k) {
-      const std::int64_t e = entries[k];
-      touched[e] = 0;
-      for (int f = 0; f < features; ++f) {
-        const std::int64_t i = e * features + f;
-        s.apply(params[i], grads[i], m[i], v[i]);
-      }
-    }
-  });
-}
-
-void adamTouched(const AdamHyper& h, float* params, float* grads, AdamMoments& moments, std::int64_t begin,
-                 std::int64_t end, int features, std::uint8_t* touched, std::uint16_t* half) {
-  const Step s(h);
-  float* m = moments.m.data();
-  float* v = moments.v.data();
-  for (std::int64_t e = begin; e < end; ++e) {
-    if (!touched[e]) continue;
-    touched[e] = 0;
-    for (int f = 0; f < features; ++f) {
-      const std::int64_t i = e * features + f;
-      s.apply(params[i], grads[i], m[i], v[i]);
-#if defined(__F16C__)
-      // The forward's half copy follows the entries Adam changes, while they are in cache.
-      if (half) half[i] = _cvtss_sh(params[i], _MM_FROUND_TO_NEAREST_INT);
-#endif
-    }
-  }
-}
-
 namespace {
 
 // Sixteen parameters at a time; only the lanes whose gradient is non-zero are written.

@@ -127,8 +127,7 @@ void forwardImpl(const HashGridLayout& layout, const float* table, const float* 
 // (stride F: a contiguous stream that leaves L2 to the level's table gradient).
 template <int F>
 void backwardLevelImpl(const HashGridLayout& layout, const float* positions, std::int64_t n, const float* grad,
-                       std::int64_t stride, float* grad_table, int level, std::uint8_t* touched,
-                       std::vector<std::int64_t>* touched_list) {
+                       std::int64_t stride, float* grad_table, int level, std::uint8_t* touched) {
   thread_local LevelRun run;
   const std::int64_t offset = layout.offset[level];
   float* level_grad = grad_table + offset * F;
@@ -148,10 +147,7 @@ void backwardLevelImpl(const HashGridLayout& layout, const float* positions, std
         float* entry = level_grad + static_cast<std::size_t>(e) * F;
         const float w = run.weight[k][i];
         for (int f = 0; f < F; ++f) entry[f] += w * g[f];
-        if (level_touched) {
-          if (touched_list && !level_touched[e]) touched_list->push_back(offset + e);
-          level_touched[e] = 1;
-        }
+        if (level_touched) level_touched[e] = 1;
       }
     }
   }
@@ -243,19 +239,18 @@ void hashEncodeForward(const HashGridLayout& layout, const float* table, const f
 
 void hashEncodeBackwardTable(const HashGridLayout& layout, const float* positions, std::int64_t n,
                              const float* grad_out, float* grad_table, int level_begin, int level_end,
-                             std::uint8_t* touched, std::vector<std::int64_t>* touched_list) {
+                             std::uint8_t* touched) {
   const std::int64_t dims = layout.outputDims();
   for (int level = level_begin; level < level_end; ++level) {
     dispatch<BwdL>(layout.features, layout, positions, n, grad_out + level * layout.features, dims, grad_table,
-                   level, touched, touched_list);
+                   level, touched);
   }
 }
 
 void hashEncodeBackwardLevel(const HashGridLayout& layout, const float* positions, std::int64_t n,
                              const float* grad, std::int64_t grad_stride, float* grad_table, int level,
                              std::uint8_t* touched) {
-  dispatch<BwdL>(layout.features, layout, positions, n, grad, grad_stride, grad_table, level, touched,
-                 static_cast<std::vector<std::int64_t>*>(nullptr));
+  dispatch<BwdL>(layout.features, layout, positions, n, grad, grad_stride, grad_table, level, touched);
 }
 
 void hashEncodeBackwardPositions(const HashGridLayout& layout, const float* table, const float* positions,

@@ -33,11 +33,10 @@ void hashEncodeForward(const HashGridLayout& layout, const float* table, const f
                        std::int64_t n, float* out);
 /// Adds d(loss)/d(table) for the levels [level_begin, level_end). Levels own disjoint table
 /// ranges, so threads that take different levels never write the same entry. When
-/// `touched` is non-null, every entry written is flagged (and, when `touched_list` is
-/// non-null, appended to it the first time).
+/// `touched` is non-null, every entry written is flagged.
 void hashEncodeBackwardTable(const HashGridLayout& layout, const float* positions, std::int64_t n,
                              const float* grad_out, float* grad_table, int level_begin, int level_end,
-                             std::uint8_t* touched = nullptr, std::vector<std::int64_t>* touched_list = nullptr);
+                             std::uint8_t* touched = nullptr);
 /// Adds d(loss)/d(table) of one level; sample i's `features` gradient floats are read at
 /// grad + i * grad_stride (levels * features for the n x outputDims() encoding gradient,
 /// features for a level-major copy, which streams instead of striding).
