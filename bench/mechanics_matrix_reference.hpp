@@ -2,10 +2,12 @@
 // The solver matrix's reference: one FEM TET10 solve on a CGAL mesh of the surface at mesh size
 // `cell`, on the union of a scenario x source's clouds, as mechanics::simulate() solves it;
 // cached as a result PLY plus a line of figures in the out dir. A later run whose points are all
-// in the cache (fewer samplers, `rows=`) reads them from it; any other point solves it again.
+// in the cache (fewer samplers, `rows=`) at the same mesh size reads them from it; any other
+// point or mesh size solves it again.
 
 #include <Eigen/Geometry>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -75,7 +77,12 @@ inline Reference referenceFem(const core::ParticleCloud& cloud, const core::Scen
   if (std::filesystem::exists(ply) && std::filesystem::exists(figures)) {
     std::optional<core::ResultField> field = cachedAt(core::readResult(ply), cloud);
     std::ifstream in(figures);
-    if (field && (in >> r.energy >> r.dofs >> r.seconds)) {
+    // The mesh size follows the figures (files written before it was recorded have none): a cache
+    // of another ref_div / conv_div is solved again, not reused under the wrong h.
+    double cached_cell = cell;
+    const bool read = static_cast<bool>(in >> r.energy >> r.dofs >> r.seconds);
+    if (read && !(in >> cached_cell)) cached_cell = cell;
+    if (field && read && std::abs(cached_cell - cell) <= 1e-9 * cell) {
       r.field = std::move(*field);
       std::fprintf(stderr, "  reference h=%g: cached %s\n", cell, ply.c_str());
       return r;
@@ -99,7 +106,8 @@ inline Reference referenceFem(const core::ParticleCloud& cloud, const core::Scen
     r.dofs = 3 * out.mesh_nodes;
     r.seconds = since(start);
     core::writeResult(ply, r.field);
-    std::ofstream(figures) << std::setprecision(17) << r.energy << " " << r.dofs << " " << r.seconds << "\n";
+    std::ofstream(figures) << std::setprecision(17) << r.energy << " " << r.dofs << " " << r.seconds << " " << cell
+                          << "\n";
     std::fprintf(stderr, "  reference h=%g: %d dofs, %.1f s, energy %.6g\n", cell, r.dofs, r.seconds, r.energy);
   } catch (const std::exception& e) {
     r.error = e.what();
