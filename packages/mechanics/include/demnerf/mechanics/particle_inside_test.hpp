@@ -24,7 +24,10 @@ class ParticleInsideTest {
   /// planes of the nearest surface particles: exact for a planar face, and how the cell quadrature
   /// measures the inside part of a small cube to better than the cube's size. Beyond the surface
   /// particles' reach only the side is known: -/+ (kSurfaceRadius + 1) spacings.
-  double signedDistance(const Eigen::Vector3d& x) const;
+  double signedDistance(const Eigen::Vector3d& x) const { return signedDistance(x, nullptr); }
+  /// The same, and the unit normal of the tangent plane that gave it (`normal`, may be null), so
+  /// that x - d n is the nearest point of the surface; zero beyond the surface particles' reach.
+  double signedDistance(const Eigen::Vector3d& x, Eigen::Vector3d* normal) const;
   /// The cube root of the body's volume per volume-carrying particle (m).
   double spacing() const { return spacing_; }
   /// Sum of the particles' volumes (m^3).
@@ -44,12 +47,14 @@ class ParticleInsideTest {
   /// Surface particles whose normals differ by more than this angle (cos 60 deg) lie on different
   /// faces: an edge between them (behindSurfaceNear).
   static constexpr double kEdgeCosine = 0.5;
+  /// Such a particle joins when it is at most this many spacings farther than the nearest one.
+  static constexpr double kEdgeReach = 2.0;
   Eigen::Vector3i bucket(const Eigen::Vector3d& x) const;
   long bucketIndex(const Eigen::Vector3i& c) const;  ///< -1 outside the table
   template <typename Visit>
   void forEachIn(const Eigen::Vector3i& c, Visit&& visit) const;
   template <typename Nearby>
-  double distanceNear(const Eigen::Vector3d& x, int nearest, Nearby&& nearby) const;
+  double distanceNear(const Eigen::Vector3d& x, int nearest, Nearby&& nearby, int& active) const;
 
   std::vector<Eigen::Vector3d> positions_, normals_;
   std::vector<char> surface_;
