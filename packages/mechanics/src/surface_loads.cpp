@@ -1,0 +1,120 @@
+#include "demnerf/mechanics/surface_loads.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "demnerf/core/error.hpp"
+#include "demnerf/mechanics/boundary_conditions.hpp"
+#include "demnerf/mechanics/dirichlet_lift.hpp"
+#include "demnerf/mechanics/loaded_share.hpp"
+#include "demnerf/mechanics/particle_inside_test.hpp"
+
+namespace demnerf::mechanics {
+namespace {
+
+// A lattice that covers the region near the body: the region's box (the body's for a half-space)
+// cut to the particles' box, both grown by two steps.
+struct Lattice {
+  Eigen::Vector3d lo;
+  Eigen::Vector3i n = Eigen::Vector3i::Zero();
+};
+
+Lattice latticeFor(const core::Region& region, const Eigen::Vector3d& body_lo, const Eigen::Vector3d& body_hi,
+                   double step) {
+  Eigen::Vector3d lo = body_lo, hi = body_hi;
+  if (region.type == core::Region::Type::kBox) {
+    lo = lo.cwiseMax(region.center - 0.5 * region.size);
+    hi = hi.cwiseMin(region.center + 0.5 * region.size);
+  } else if (region.type == core::Region::Type::kSphere) {
+    lo = lo.cwiseMax(region.center - Eigen::Vector3d::Constant(region.radius));
+    hi = hi.cwiseMin(region.center + Eigen::Vector3d::Constant(region.radius));
+  }
+  Lattice lattice;
+  lattice.lo = lo - Eigen::Vector3d::Constant(2 * step);
+  const Eigen::Vector3d extent = hi - lo + Eigen::Vector3d::Constant(4 * step);
+  if ((extent.array() <= 0).any()) return lattice;
+  const Eigen::Vector3d count = (extent / step).array().ceil();
+  if (!(count.prod() <= 4e7))
+    throw core::Error("load region " + region.describe() + ": its surface lattice of " + std::to_string(count.prod()) +
+                      " points is too fine; use a coarser feature grid (grid.cell)");
+  lattice.n = count.cast<int>();
+  return lattice;
+}
+
+// Surface planes whose normals differ by more than 60 degrees meet at an edge (as in
+// ParticleInsideTest).
+constexpr double kEdgeCosine = 0.5;
+
+// The points of one load's patch and their areas (surfaceLoads()).
+void patchPoints(const core::Region& region, const ParticleInsideTest& inside, const Lattice& lattice, double step,
+                 std::vector<Eigen::Vector3d>& points, std::vector<double>& areas) {
+  for (int k = 0; k < lattice.n(2); ++k)
+    for (int j = 0; j < lattice.n(1); ++j)
+      for (int i = 0; i < lattice.n(0); ++i) {
+        const Eigen::Vector3d p = lattice.lo + step * Eigen::Vector3d(i + 0.5, j + 0.5, k + 0.5);
+        if (regionDistance(region, p) > 2 * step) continue;
+        Eigen::Vector3d n;
+        double d = inside.signedDistance(p, &n);
+        if (!(std::abs(d) < step) || n.isZero()) continue;
+        // The foot of the nearest plane can lie beyond another face: across a convex edge whose
+        // other face's particles the inside test did not join (a random cloud's gap at the edge),
+        // the nearest plane extends past the edge, and a point outside the other face counted as
+        // near the surface (the random cuboid's corner bins took 18 % too much torque). When the
+        // foot lies outside a face that turns by more than 60 degrees (an edge, not the facets of
+        // a curved surface), the point is at least as far from the surface as the foot.
+        Eigen::Vector3d q = p - d * n, nq = n;
+        for (int again = 0; again < 3; ++again) {
+          Eigen::Vector3d next;
+          const double dq = inside.signedDistance(q, &next);
+          if (again == 0 && dq > 0 && next.dot(n) < kEdgeCosine) d = std::max(d, dq);
+          if (!(std::abs(dq) > 1e-9 * step) || next.isZero()) break;
+          q -= dq * next;  // a few more projections take the foot onto the surface (the edge)
+          nq = next;
+        }
+        if (!(std::abs(d) < step)) continue;
+        // The point stands for a lattice cell's footprint, a square of side `step` on the surface:
+        // clipped to the region as a particle's area is (loadedShare(), with its rounding
+        // tolerance), so a region's edge is resolved below the step.
+        const double share = loadedShare(region, q, nq, step * step);
+        if (!(share > 0.0)) continue;
+        points.push_back(q);
+        areas.push_back(share * (1.0 - std::abs(d) / step) * step * step);
+      }
+}
+
+}  // namespace
+
+SurfaceLoads surfaceLoads(const core::Scenario& scenario, const core::ParticleCloud& cloud, double step) {
+  if (!(step > 0)) throw core::Error("surface loads: the lattice step must be > 0");
+  SurfaceLoads out;
+  if (scenario.loads.empty()) return out;
+  const ParticleInsideTest inside(cloud);
+  Eigen::Vector3d lo = cloud.positions[0], hi = lo;
+  for (const Eigen::Vector3d& p : cloud.positions) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  for (const core::Load& load : scenario.loads) {
+    core::Scenario one = scenario;
+    one.loads = {load};
+    std::vector<Eigen::Vector3d> points;
+    std::vector<double> areas;
+    patchPoints(load.region, inside, latticeFor(load.region, lo, hi, step), step, points, areas);
+    if (points.empty()) {
+      // particleTractions() names a region that holds no surface particle; one that holds some but
+      // is finer than the lattice keeps its particles' forces.
+      const std::vector<Eigen::Vector3d> traction = particleTractions(one, cloud);
+      for (std::size_t i = 0; i < cloud.size(); ++i)
+        if (cloud.areas[i] > 0 && traction[i].squaredNorm() > 0) {
+          out.points.push_back(cloud.positions[i]);
+          out.forces.push_back(cloud.areas[i] * traction[i]);
+        }
+      continue;
+    }
+    const WrenchTraction field = spreadWrench(points, areas, load.force, load.torque, "load '" + load.name + "'");
+    for (std::size_t k = 0; k < points.size(); ++k) {
+      out.points.push_back(points[k]);
+      out.forces.push_back(areas[k] * field.at(points[k]));
+    }
+  }
+  return out;
+}
+
+}  // namespace demnerf::mechanics
