@@ -13,11 +13,16 @@ namespace demnerf::mechanics {
 namespace {
 
 // A lattice that covers the region near the body: the region's box (the body's for a half-space)
-// cut to the particles' box, both grown by two steps.
+// cut to the particles' box, both grown by two steps. A region much larger than the patch it loads
+// (a half-space, or a box around the whole body, with a fine grid) would need a lattice over the
+// whole body: the step grows until it holds at most kMaxProbes points (a few seconds of probes).
 struct Lattice {
   Eigen::Vector3d lo;
   Eigen::Vector3i n = Eigen::Vector3i::Zero();
+  double step = 0.0;
 };
+
+constexpr double kMaxProbes = 4e6;
 
 Lattice latticeFor(const core::Region& region, const Eigen::Vector3d& body_lo, const Eigen::Vector3d& body_hi,
                    double step) {
@@ -30,15 +35,19 @@ Lattice latticeFor(const core::Region& region, const Eigen::Vector3d& body_lo, c
     hi = hi.cwiseMin(region.center + Eigen::Vector3d::Constant(region.radius));
   }
   Lattice lattice;
-  lattice.lo = lo - Eigen::Vector3d::Constant(2 * step);
-  const Eigen::Vector3d extent = hi - lo + Eigen::Vector3d::Constant(4 * step);
-  if ((extent.array() <= 0).any()) return lattice;
-  const Eigen::Vector3d count = (extent / step).array().ceil();
-  if (!(count.prod() <= 4e7))
-    throw core::Error("load region " + region.describe() + ": its surface lattice of " + std::to_string(count.prod()) +
-                      " points is too fine; use a coarser feature grid (grid.cell)");
-  lattice.n = count.cast<int>();
-  return lattice;
+  for (;;) {
+    const Eigen::Vector3d extent = hi - lo + Eigen::Vector3d::Constant(4 * step);
+    if ((extent.array() <= 0).any()) return lattice;
+    const Eigen::Vector3d count = (extent / step).array().ceil();
+    if (count.prod() > kMaxProbes) {
+      step *= 1.01 * std::cbrt(count.prod() / kMaxProbes);
+      continue;
+    }
+    lattice.lo = lo - Eigen::Vector3d::Constant(2 * step);
+    lattice.n = count.cast<int>();
+    lattice.step = step;
+    return lattice;
+  }
 }
 
 // Surface planes whose normals differ by more than 60 degrees meet at an edge (as in
@@ -46,8 +55,9 @@ Lattice latticeFor(const core::Region& region, const Eigen::Vector3d& body_lo, c
 constexpr double kEdgeCosine = 0.5;
 
 // The points of one load's patch and their areas (surfaceLoads()).
-void patchPoints(const core::Region& region, const ParticleInsideTest& inside, const Lattice& lattice, double step,
+void patchPoints(const core::Region& region, const ParticleInsideTest& inside, const Lattice& lattice,
                  std::vector<Eigen::Vector3d>& points, std::vector<double>& areas) {
+  const double step = lattice.step;
   for (int k = 0; k < lattice.n(2); ++k)
     for (int j = 0; j < lattice.n(1); ++j)
       for (int i = 0; i < lattice.n(0); ++i) {
@@ -96,7 +106,7 @@ SurfaceLoads surfaceLoads(const core::Scenario& scenario, const core::ParticleCl
     one.loads = {load};
     std::vector<Eigen::Vector3d> points;
     std::vector<double> areas;
-    patchPoints(load.region, inside, latticeFor(load.region, lo, hi, step), step, points, areas);
+    patchPoints(load.region, inside, latticeFor(load.region, lo, hi, step), points, areas);
     if (points.empty()) {
       // particleTractions() names a region that holds no surface particle; one that holds some but
       // is finer than the lattice keeps its particles' forces.

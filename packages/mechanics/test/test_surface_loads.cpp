@@ -112,3 +112,36 @@ TEST(SurfaceLoads, TheTwistOnRandomSurfaceParticlesHasTheLatticesEnergy) {
   EXPECT_LT(energy[1], 0.0);
   EXPECT_NEAR(energy[0] / energy[1], 1.0, 0.01);
 }
+
+TEST(SurfaceLoads, OtherRegionsCarryTheExactWrenchToo) {
+  // A half-space beyond x = 120 mm loads the same patch as the box; a sphere finer than the lattice
+  // around one surface particle keeps that particle's force.
+  core::Scenario s = cuboidTwist();
+  const core::ParticleCloud cloud = dm::test::randomSurfaceBox(kLower, kUpper, 1.0 / 60, 3);
+  const auto resultants = [](const dm::SurfaceLoads& loads, Vector3d& force, Vector3d& torque) {
+    force = torque = Vector3d::Zero();
+    for (std::size_t k = 0; k < loads.points.size(); ++k) {
+      force += loads.forces[k];
+      torque += loads.points[k].cross(loads.forces[k]);
+    }
+  };
+  Vector3d force, torque;
+  s.loads[0].region.type = core::Region::Type::kHalfspace;
+  s.loads[0].region.center = Vector3d(0.12, 0, 0);
+  s.loads[0].region.normal = Vector3d(-1, 0, 0);
+  const dm::SurfaceLoads half = dm::surfaceLoads(s, cloud, 0.0016);
+  resultants(half, force, torque);
+  EXPECT_LT(force.norm(), 1e-9);
+  EXPECT_LT((torque - Vector3d(8, 0, 0)).norm(), 1e-9);
+  std::size_t surface = 0;
+  while (!(cloud.areas[surface] > 0)) ++surface;
+  s.loads[0].region.type = core::Region::Type::kSphere;
+  s.loads[0].region.center = cloud.positions[surface];
+  s.loads[0].region.radius = 1e-6;
+  s.loads[0].force = Vector3d(0, 0, 3);
+  s.loads[0].torque.setZero();
+  const dm::SurfaceLoads tiny = dm::surfaceLoads(s, cloud, 0.0016);
+  ASSERT_EQ(tiny.points.size(), 1u);
+  EXPECT_EQ(tiny.points[0], cloud.positions[surface]);
+  EXPECT_LT((tiny.forces[0] - Vector3d(0, 0, 3)).norm(), 1e-12);
+}

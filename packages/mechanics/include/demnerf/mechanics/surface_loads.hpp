@@ -32,6 +32,8 @@ struct SurfaceLoads {
 /// resolution `step`. The load's wrench is spread over those points as particleTractions() spreads
 /// it over particles (spreadWrench). A load whose region holds surface particles but none of these
 /// points (a region smaller than `step`) keeps particleTractions()'s forces at those particles.
+/// A region whose lattice would exceed 4 million points (a half-space, or a box around the whole
+/// body, on a fine grid) gets a coarser step.
 /// Throws core::Error as particleTractions() does for a load that selects no surface particle.
 SurfaceLoads surfaceLoads(const core::Scenario& scenario, const core::ParticleCloud& cloud, double step);
 
