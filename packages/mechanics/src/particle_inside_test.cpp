@@ -145,7 +145,7 @@ double ParticleInsideTest::distanceNear(const Eigen::Vector3d& x, int nearest, N
   const auto distance = [&](int i) { return (x - positions_[i]).dot(normals_[i]) - offset_; };
   const Eigen::Vector3d& p = positions_[nearest];
   const Eigen::Vector3d& n = normals_[nearest];
-  const double reach = (x - p).norm() + kEdgeReach * spacing_;
+  const double reach = (x - p).norm() + edge_reach_ * spacing_;
   double d = distance(nearest);
   nearby([&](int j) {
     if (normals_[j].dot(n) >= kEdgeCosine || (x - positions_[j]).squaredNorm() > reach * reach) return;

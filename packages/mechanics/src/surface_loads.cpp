@@ -54,6 +54,12 @@ Lattice latticeFor(const core::Region& region, const Eigen::Vector3d& body_lo, c
 // ParticleInsideTest).
 constexpr double kEdgeCosine = 0.5;
 
+// The inside test's edge join for the loads (ParticleInsideTest::setEdgeReach): beside a gap in a
+// random cloud's face particles near an edge, a point just outside the face had the other face's
+// particle nearest and its own face's beyond one spacing more, so the band outside counted as
+// surface (the random cuboid's corner bins took 18 % too much torque); two spacings close it.
+constexpr double kLoadEdgeReach = 2.0;
+
 // The points of one load's patch and their areas (surfaceLoads()).
 void patchPoints(const core::Region& region, const ParticleInsideTest& inside, const Lattice& lattice,
                  std::vector<Eigen::Vector3d>& points, std::vector<double>& areas) {
@@ -67,11 +73,11 @@ void patchPoints(const core::Region& region, const ParticleInsideTest& inside, c
         double d = inside.signedDistance(p, &n);
         if (!(std::abs(d) < step) || n.isZero()) continue;
         // The foot of the nearest plane can lie beyond another face: across a convex edge whose
-        // other face's particles the inside test did not join (a random cloud's gap at the edge),
-        // the nearest plane extends past the edge, and a point outside the other face counted as
-        // near the surface (the random cuboid's corner bins took 18 % too much torque). When the
-        // foot lies outside a face that turns by more than 60 degrees (an edge, not the facets of
-        // a curved surface), the point is at least as far from the surface as the foot.
+        // other face's particles the inside test did not join (a gap in a random cloud's face
+        // wider than kLoadEdgeReach), the nearest plane extends past the edge, and a point outside
+        // the other face would count as near the surface. When the foot lies outside a face that
+        // turns by more than 60 degrees (an edge, not the facets of a curved surface), the point
+        // is at least as far from the surface as the foot.
         Eigen::Vector3d q = p - d * n, nq = n;
         for (int again = 0; again < 3; ++again) {
           Eigen::Vector3d next;
@@ -98,7 +104,8 @@ SurfaceLoads surfaceLoads(const core::Scenario& scenario, const core::ParticleCl
   if (!(step > 0)) throw core::Error("surface loads: the lattice step must be > 0");
   SurfaceLoads out;
   if (scenario.loads.empty()) return out;
-  const ParticleInsideTest inside(cloud);
+  ParticleInsideTest inside(cloud);
+  inside.setEdgeReach(kLoadEdgeReach);
   Eigen::Vector3d lo = cloud.positions[0], hi = lo;
   for (const Eigen::Vector3d& p : cloud.positions) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
   for (const core::Load& load : scenario.loads) {
