@@ -11,6 +11,7 @@
 #include "demnerf/core/error.hpp"
 #include "demnerf/mechanics/boundary_conditions.hpp"
 #include "demnerf/mechanics/particle_quadrature.hpp"
+#include "demnerf/mechanics/surface_loads.hpp"
 #include "dem_config_check.hpp"
 #include "dem_solver_impl.hpp"
 
@@ -18,6 +19,12 @@ namespace demnerf::mechanics {
 
 using torch::Tensor;
 using torch_support::toTensor;
+
+namespace {
+// The default DEM's load lattice (surface_loads.hpp): this many steps per grid cell make the load
+// smooth at the cell's scale and clip a region's edge to an eighth of a cell.
+constexpr double kLoadStepsPerCell = 8.0;
+}  // namespace
 
 DemSolver::DemSolver(core::ParticleCloud cloud, const core::Scenario& scenario, DemConfig config)
     : impl_(std::make_unique<Impl>()) {
@@ -109,30 +116,34 @@ DemSolver::Impl::LoadSizes DemSolver::Impl::setParticleSets() {
     return toTensor(out, dtype);
   };
   std::vector<double> vols;
-  std::vector<Eigen::Vector3d> body_forces, ta;
+  std::vector<Eigen::Vector3d> body_forces;
   for (long i : vi) {
     vols.push_back(weight[i]);
     body_forces.push_back(weight[i] * scenario.body_force);
   }
-  for (long i : si) ta.push_back(cloud.areas[i] * traction[i]);
   xv = pick(vi, cloud.positions);
   vol = toTensor(vols, dtype);
   body = toTensor(body_forces, dtype);
-  xs = si.empty() ? torch::zeros({0, 3}, torch::TensorOptions().dtype(dtype)) : pick(si, cloud.positions);
-  traction_area = si.empty() ? torch::zeros({0, 3}, torch::TensorOptions().dtype(dtype)) : toTensor(ta, dtype);
   lift_v[0] = pick(vi, lift.g);
   lift_v[1] = pick(vi, lift.grad_g);
   lift_v[2] = pick(vi, lift.D);
   lift_v[3] = pick(vi, lift.grad_D);
-  if (!si.empty()) {
-    lift_s[0] = pick(si, lift.g);
-    lift_s[1] = pick(si, lift.grad_g);
-    lift_s[2] = pick(si, lift.D);
-    lift_s[3] = pick(si, lift.grad_D);
+  if (grid && config.grid.quadrature == DemConfig::GridQuadrature::kCells) {
+    // The default DEM: the loads spread evenly over the surface the particles describe, at a
+    // fraction of the grid's cell (surface_loads.hpp), not as point forces on the sampler's
+    // surface particles, which the grid resolves.
+    const SurfaceLoads loads = surfaceLoads(scenario, cloud, config.grid.cell / kLoadStepsPerCell);
+    setLoadPoints(loads.points, loads.forces);
+  } else {
+    std::vector<Eigen::Vector3d> points, forces;
+    for (long i : si) {
+      points.push_back(cloud.positions[i]);
+      forces.push_back(cloud.areas[i] * traction[i]);
+    }
+    setLoadPoints(points, forces);
   }
   if (grid) {
     grid_v = gridSupport(xv);
-    if (!si.empty()) grid_s = gridSupport(xs);
     buildGridQuadrature();
   }
   std::vector<long> ci(fixed.index.begin(), fixed.index.end());
@@ -142,6 +153,21 @@ DemSolver::Impl::LoadSizes DemSolver::Impl::setParticleSets() {
   fixed_value = toTensor(fixed.value, dtype);
   fixed_mask = toTensor(mask, dtype);
   return {volume, max_t, max_g};
+}
+
+// The loads as forces at points (surface particles, or surfaceLoads()'s points), with the lift
+// and the grid's support there.
+void DemSolver::Impl::setLoadPoints(const std::vector<Eigen::Vector3d>& points,
+                                    const std::vector<Eigen::Vector3d>& forces) {
+  xs = points.empty() ? torch::zeros({0, 3}, torch::TensorOptions().dtype(dtype)) : toTensor(points, dtype);
+  traction_area = forces.empty() ? torch::zeros({0, 3}, torch::TensorOptions().dtype(dtype)) : toTensor(forces, dtype);
+  if (points.empty()) return;
+  const DirichletLift lift = dirichletLift(scenario, points, length, &held);
+  lift_s[0] = toTensor(lift.g, dtype);
+  lift_s[1] = toTensor(lift.grad_g, dtype);
+  lift_s[2] = toTensor(lift.D, dtype);
+  lift_s[3] = toTensor(lift.grad_D, dtype);
+  if (grid) grid_s = gridSupport(xs);
 }
 
 void DemSolver::setScenario(const core::Scenario& scenario) {

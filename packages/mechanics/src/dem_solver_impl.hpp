@@ -143,6 +143,7 @@ struct DemSolver::Impl {
     double volume, max_traction, max_prescribed;  // m^3, Pa, m: the a-priori scales' inputs
   };
   LoadSizes setParticleSets();
+  void setLoadPoints(const std::vector<Eigen::Vector3d>& points, const std::vector<Eigen::Vector3d>& forces);
 
   // dem_training.cpp
   std::string keptState() const;

@@ -69,9 +69,10 @@ Eigen::Vector3i ParticleInsideTest::bucket(const Eigen::Vector3d& x) const {
   return ((x - lower_) / bucket_).array().floor().cast<int>();
 }
 
-bool ParticleInsideTest::inside(const Eigen::Vector3d& x) const { return signedDistance(x) <= 0.0; }
+bool ParticleInsideTest::inside(const Eigen::Vector3d& x) const { return signedDistance(x, nullptr) <= 0.0; }
 
-double ParticleInsideTest::signedDistance(const Eigen::Vector3d& x) const {
+double ParticleInsideTest::signedDistance(const Eigen::Vector3d& x, Eigen::Vector3d* normal) const {
+  if (normal) normal->setZero();
   const Eigen::Vector3i c = bucket(x);
   // Near the surface: the side of the nearest surface particle's tangent plane (moved out by the
   // surface offset). Nearest, not a weighted blend of planes: a blend rounds convex edges by about
@@ -94,7 +95,12 @@ double ParticleInsideTest::signedDistance(const Eigen::Vector3d& x) const {
       nearest = i;
     }
   });
-  if (nearest >= 0) return distanceNear(x, nearest, nearby);
+  if (nearest >= 0) {
+    int active = nearest;
+    const double d = distanceNear(x, nearest, nearby, active);
+    if (normal) *normal = normals_[active].normalized();
+    return d;
+  }
   // Away from the surface: the nearest particle within reach must carry volume (found in shells
   // of buckets; shell r holds every particle closer than r buckets).
   const int rings = static_cast<int>(std::ceil(reach_ / bucket_)) + 1;
@@ -135,20 +141,21 @@ double ParticleInsideTest::signedDistance(const Eigen::Vector3d& x) const {
 // both, across a concave one behind either. As distances to the planes: the larger across a convex
 // edge (the intersection of the half-spaces), the smaller across a concave one (their union).
 template <typename Nearby>
-double ParticleInsideTest::distanceNear(const Eigen::Vector3d& x, int nearest, Nearby&& nearby) const {
+double ParticleInsideTest::distanceNear(const Eigen::Vector3d& x, int nearest, Nearby&& nearby, int& active) const {
   const auto distance = [&](int i) { return (x - positions_[i]).dot(normals_[i]) - offset_; };
   const Eigen::Vector3d& p = positions_[nearest];
   const Eigen::Vector3d& n = normals_[nearest];
-  const double reach = (x - p).norm() + spacing_;
+  const double reach = (x - p).norm() + edge_reach_ * spacing_;
   double d = distance(nearest);
   nearby([&](int j) {
     if (normals_[j].dot(n) >= kEdgeCosine || (x - positions_[j]).squaredNorm() > reach * reach) return;
     const bool j_behind_nearest = (positions_[j] - p).dot(n) < 0;
     const bool nearest_behind_j = (p - positions_[j]).dot(normals_[j]) < 0;
-    if (j_behind_nearest && nearest_behind_j)
-      d = std::max(d, distance(j));
-    else if (!j_behind_nearest && !nearest_behind_j)
-      d = std::min(d, distance(j));
+    const double dj = distance(j);
+    if ((j_behind_nearest && nearest_behind_j && dj > d) || (!j_behind_nearest && !nearest_behind_j && dj < d)) {
+      d = dj;
+      active = j;
+    }
   });
   return d;
 }
