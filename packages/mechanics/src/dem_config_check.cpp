@@ -31,6 +31,9 @@ void checkGridSettings(const DemConfig& config) {
   if (!(config.grid.surface_share >= 0 && config.grid.surface_share <= 1) || !(config.grid.refine_band >= 0) ||
       !std::isfinite(config.grid.refine_band))
     throw core::Error("DEM grid.surface_share must lie in [0, 1] and grid.refine_band be finite and >= 0");
+  if (config.grid.nested_levels < 0 || config.grid.nested_levels > 4 || !(config.grid.nested_ratio > 1) ||
+      !std::isfinite(config.grid.nested_ratio))
+    throw core::Error("DEM grid.nested_levels must lie in [0, 4] and grid.nested_ratio be finite and > 1");
 }
 
 // A resolved grid against the particles that integrate it or carry its loads.

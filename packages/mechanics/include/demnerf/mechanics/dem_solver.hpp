@@ -79,6 +79,11 @@ struct DemGridConfig {
   int boundary_levels = 1;        ///< times a cut cell is split 2 x 2 x 2, kCells (1)
   double extension_fill = 0.25;   ///< nodes touching no cell filled this much are extrapolated; 0: off (0.25)
   int newton_iterations = 30;     ///< Newton iterations of the grid solve (30)
+  /// Nested grid solve, kCells: each load step's Newton runs first on this many coarser grids
+  /// (cells nested_ratio^k times larger, coarsest first), whose answers, moved to the grid by least
+  /// squares, start its own Newton; the answer is the grid's (0: off)
+  int nested_levels = 0;
+  double nested_ratio = 1.5;      ///< cell ratio between nested levels, > 1 (1.5)
   double refine_band = 1.0;       ///< particles within this many cells of a region split 2 x 2 x 2, kParticles (1)
   double surface_share = 0.04;    ///< share of energyWeights() in the particle weights, kParticles (0.04)
 };
