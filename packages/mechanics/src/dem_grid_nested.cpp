@@ -68,6 +68,7 @@ void DemSolver::Impl::buildCoarseQuadratures() {
 
 GridNewtonConfig DemSolver::Impl::newtonSettings(GridNewtonCache& cache, int before, double scale) {
   GridNewtonConfig newton;
+  newton.near_minimum = &cache == &grid_newton_cache && !coarse_levels.empty();
   newton.max_iterations = config.grid.newton_iterations;
   newton.extension_fill = config.grid.extension_fill;
   newton.threads = config.threads;
