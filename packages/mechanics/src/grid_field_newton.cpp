@@ -132,6 +132,20 @@ bool lineSearch(const GridFieldEnergy& energy, const Unknowns& unknowns, const E
   return false;
 }
 
+// The gradient at the iterate (in the unknowns) and the Hessian there. In Newton's quadratic phase
+// the residual is mostly converged already: the gradient alone (a fraction of an assembly) is
+// computed first, and false returned without a Hessian when its norm is within `converged`.
+bool assembleAt(const GridFieldEnergy& energy, const Unknowns& unknowns, const Iterate& x, bool quadratic,
+                double converged, Eigen::VectorXd& gradient, Eigen::SparseMatrix<double>& hessian) {
+  if (quadratic) {
+    gradient = unknowns.projectGradient(energy.gradient(x.c));
+    if (gradient.norm() <= converged) return false;
+  }
+  energy.derivatives(x.c, gradient, hessian);
+  gradient = unknowns.projectGradient(gradient);
+  return true;
+}
+
 }  // namespace
 
 GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const HyperelasticMaterial& material,
@@ -166,17 +180,7 @@ GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const Hyper
   bool quadratic = false;
   for (int it = 0;; ++it) {
     auto start = std::chrono::steady_clock::now();
-    // In the quadratic phase the next residual is mostly below the tolerance: the gradient alone (a
-    // fraction of an assembly) is checked first, and the Hessian assembled only when still needed.
-    bool hessian_needed = true;
-    if (quadratic) {
-      gradient = unknowns.projectGradient(energy.gradient(x.c));
-      hessian_needed = !(gradient.norm() <= config.residual_tolerance * load);
-    }
-    if (hessian_needed) {
-      energy.derivatives(x.c, gradient, hessian);
-      gradient = unknowns.projectGradient(gradient);
-    }
+    assembleAt(energy, unknowns, x, quadratic, config.residual_tolerance * load, gradient, hessian);
     out.assembly_seconds += secondsSince(start);
     if (it == 0) load = std::max(load, gradient.norm());
     out.residual = load > 0 ? gradient.norm() / load : 0.0;

@@ -72,7 +72,7 @@ struct DemLbfgsConfig {
 struct DemGridConfig {
   double cell = 0.0;              ///< cell edge in m (0: from spacings or body_cells)
   double spacings = 0.0;          ///< cell in particle spacings (0: from body_cells)
-  double body_cells = 600.0;      ///< cells the body's volume holds (600; 0 with the others 0: MLP alone)
+  double body_cells = 2000.0;     ///< cells the body's volume holds (2000; 0 with the others 0: MLP alone)
   int degree = 2;                 ///< 1 trilinear, 2 C1 quadratic, 3 C2 cubic (2)
   DemGridQuadrature quadrature = DemGridQuadrature::kCells;  ///< Gauss points in cells, or the particles (kCells)
   int gauss_points = 2;           ///< Gauss points per axis and cell, kCells (2)
@@ -81,9 +81,9 @@ struct DemGridConfig {
   int newton_iterations = 30;     ///< Newton iterations of the grid solve (30)
   /// Nested grid solve, kCells: each load step's Newton runs first on this many coarser grids
   /// (cells nested_ratio^k times larger, coarsest first), whose answers, moved to the grid by least
-  /// squares, start its own Newton; the answer is the grid's (0: off)
-  int nested_levels = 0;
-  double nested_ratio = 1.5;      ///< cell ratio between nested levels, > 1 (1.5)
+  /// squares, start its own Newton; the answer is the grid's (1; 0: off)
+  int nested_levels = 1;
+  double nested_ratio = 2.0;      ///< cell ratio between nested levels, > 1 (2)
   double refine_band = 1.0;       ///< particles within this many cells of a region split 2 x 2 x 2, kParticles (1)
   double surface_share = 0.04;    ///< share of energyWeights() in the particle weights, kParticles (0.04)
 };
