@@ -72,7 +72,10 @@ struct DemLbfgsConfig {
 struct DemGridConfig {
   double cell = 0.0;              ///< cell edge in m (0: from spacings or body_cells)
   double spacings = 0.0;          ///< cell in particle spacings (0: from body_cells)
-  double body_cells = 2000.0;     ///< cells the body's volume holds (2000; 0 with the others 0: MLP alone)
+  double body_cells = 2000.0;     ///< most cells the body's volume holds (2000; 0 with the others 0: MLP alone)
+  /// With body_cells: the cell is no finer than the body's mean thickness 4 V / A (a square bar's
+  /// side) over this many, so compact bodies keep coarser cells than slender ones (6; 0: off)
+  double thickness_cells = 6.0;
   int degree = 2;                 ///< 1 trilinear, 2 C1 quadratic, 3 C2 cubic (2)
   DemGridQuadrature quadrature = DemGridQuadrature::kCells;  ///< Gauss points in cells, or the particles (kCells)
   int gauss_points = 2;           ///< Gauss points per axis and cell, kCells (2)
