@@ -169,7 +169,7 @@ TEST(DemGrid, NestedSolveEndsAtTheGridsOwnMinimiser) {
   dm::DemConfig config;
   config.network.width = 8;
   config.network.depth = 2;
-  config.grid.cell = 0.012;
+  config.grid.cell = 0.015;
   config.threads = 1;
   dm::DemSolver direct(cloud, s, config);
   const dm::DemReport a = direct.solve();
