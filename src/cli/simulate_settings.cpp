@@ -47,7 +47,7 @@ void applyDemFlags(const Arguments& arguments, mechanics::DemConfig& dem) {
   choice.grid_spacings = positiveFlag(arguments, "grid-spacings",
                                       "the feature grid's cell in particle spacings (> 0; 2 is a good choice)");
   choice.grid_body_cells = positiveFlag(arguments, "grid-body-cells",
-                                        "how many grid cells the body's volume holds (> 0; 600 suits the T-bar)");
+                                        "how many grid cells the body's volume holds (> 0; 2000 gives the T-bar's 60 mm section six 10 mm cells)");
   if (arguments.has("boundary")) {
     const std::string boundary = arguments.text("boundary");
     if (boundary == "penalty") dem.boundary.kind = mechanics::DemConfig::Boundary::kPenalty;

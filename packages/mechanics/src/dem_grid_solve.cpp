@@ -34,6 +34,7 @@ void DemSolver::Impl::buildGridQuadrature() {
       gq_points = std::move(q.points);
       gq_volume = std::move(q.weights);
     }
+    buildCoarseQuadratures();
   } else {
     buildParticleGridQuadrature();
   }
@@ -117,21 +118,13 @@ GridFieldProblem DemSolver::Impl::fieldProblem(const std::vector<Eigen::Vector3d
 // failed and is halved).
 bool DemSolver::Impl::solveGrid(double scale, int& iterations) {
   torch::NoGradGuard guard;
+  solveCoarseLevels(scale, iterations);  // their answers start this Newton (dem_grid_nested.cpp)
   const GridFieldProblem pb = fieldProblem(gq_points, gq_volume, gq_lift, gq_x, gq_lift_t, scale, false);
   // The Newton unknowns are in metres: c C.
   Eigen::MatrixXd C = toEigen(grid_coef.detach()) * out_scale;
-  GridNewtonConfig newton;
-  newton.max_iterations = config.grid.newton_iterations;
-  newton.extension_fill = config.grid.extension_fill;
-  newton.threads = config.threads;
-  newton.cache = &grid_newton_cache;
-  const int before = iterations;
-  newton.on_iteration = [&](int it, double energy, double residual) {
-    tick("newton", scale, before + it, energy, residual);
-  };
   GridNewtonOutcome outcome;
   try {
-    outcome = minimiseGridField(pb, *material, *grid, C, newton);
+    outcome = minimiseGridField(pb, *material, *grid, C, newtonSettings(grid_newton_cache, iterations, scale));
   } catch (...) {
     setGridCoefficients(C / out_scale);
     throw;

@@ -58,6 +58,7 @@ DemSolver::DemSolver(core::ParticleCloud cloud, const core::Scenario& scenario, 
                         std::to_string(config.grid.cell) + " m is far too fine for a body of " +
                         std::to_string(m.length) + " m; use a cell of a few particle spacings");
     m.grid_coef = torch::zeros({m.grid->nodeCount(), 3}, torch::TensorOptions().dtype(m.dtype)).requires_grad_(true);
+    m.makeCoarseLevels(box.center - box.half - margin, box.center + box.half + margin);
   }
   setScenario(scenario);
 }

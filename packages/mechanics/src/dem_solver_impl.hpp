@@ -76,6 +76,17 @@ struct DemSolver::Impl {
   DirichletLift gq_lift;
   GridNewtonCache grid_newton_cache;  // the last factorisation, across load steps and scenarios
   Tensor gq_x, gq_lift_t[4];
+  // Nested grid solve (DemConfig::grid.nested_levels): coarser grids, coarsest first, each with its
+  // cell quadrature, lift and factorisation cache; their Newton answers start the grid's Newton.
+  struct CoarseLevel {
+    std::unique_ptr<BsplineGrid> grid;
+    std::vector<Eigen::Vector3d> points;
+    std::vector<double> volume;
+    DirichletLift lift;
+    Tensor x, lift_t[4];
+    GridNewtonCache cache;
+  };
+  std::vector<CoarseLevel> coarse_levels;
 
   // dem_field.cpp
   std::vector<Tensor> parameters() const;
@@ -109,6 +120,11 @@ struct DemSolver::Impl {
                                 const DirichletLift& lift, const Tensor& x, const Tensor* lifted, double scale,
                                 bool with_grid) const;
   std::string gridFailureAdvice() const;
+  // dem_grid_nested.cpp
+  void makeCoarseLevels(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi);
+  void buildCoarseQuadratures();
+  void solveCoarseLevels(double scale, int& iterations);
+  GridNewtonConfig newtonSettings(GridNewtonCache& cache, int before, double scale);
   void checkAnswer(const DemReport& report) const;
 
   // dem_mlp_check.cpp: the MLP-only DEM's equilibrium check, in the basis of the B-spline grid the

@@ -45,6 +45,9 @@ class ShiftedCholesky {
 
   /// The last factorisation's shift (relative to each column's diagonal), their count, and whether they
   /// are dense (a compact body's nearly full factor): for the grid Newton's verbose report.
+  /// The first factorisation is tried unshifted before Lanczos, as later ones are after an
+  /// unshifted one: for a Newton that starts near its minimum (the nested grid solve's fine grid).
+  void tryUnshiftedFirst() { unshifted_first_ = true; }
   double lastShift() const { return last_shift_; }
   int factorisations() const { return factorisations_; }
   bool dense() const { return dense_; }
@@ -69,7 +72,7 @@ class ShiftedCholesky {
     // near its minimum): the unshifted factorisation is tried before Lanczos. It succeeds only when
     // H is positive definite, where Lanczos (Ritz values lie above the lowest eigenvalue) would
     // also have said "no shift", so the answer is the same; a failure goes on as below.
-    if (factorisations_ > 0 && last_shift_ == 0.0) {
+    if ((factorisations_ > 0 || unshifted_first_) && last_shift_ == 0.0) {
       factorised_ = factorise(scaled);
       ++factorisations_;
       if (factorised_) return factorSolve(b);
@@ -225,6 +228,7 @@ class ShiftedCholesky {
   bool ordered_ = false, analysed_ = false, factorised_ = false, dense_ = false;
   double last_shift_ = 0.0;  // relative to each column's diagonal
   int factorisations_ = 0;
+  bool unshifted_first_ = false;
 };
 
 }  // namespace demnerf::mechanics

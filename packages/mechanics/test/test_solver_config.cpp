@@ -168,7 +168,8 @@ TEST(SolverConfig, BadFilesAreRejectedNamingTheFileAndTheKey) {
 TEST(SolverConfig, TheDefaultDemIsTheFeatureGridAndThePaperDemTheMlp) {
   const dm::DemConfig grid = dm::demConfigForMethod("grid");
   EXPECT_EQ(dm::solverConfigYaml(dm::solverDefaults()), dm::solverConfigYaml(dm::SimulateOptions{}));
-  EXPECT_EQ(grid.grid.body_cells, 600.0);
+  EXPECT_EQ(grid.grid.body_cells, 2000.0);
+  EXPECT_EQ(grid.grid.nested_levels, 1);  // the 10 mm T-bar grid started from a 20 mm one
   EXPECT_EQ(grid.grid.quadrature, dm::DemConfig::GridQuadrature::kCells);
   EXPECT_GT(grid.grid.extension_fill, 0.0);
   EXPECT_EQ(grid.adam.iterations, 0);

@@ -72,13 +72,21 @@ struct DemLbfgsConfig {
 struct DemGridConfig {
   double cell = 0.0;              ///< cell edge in m (0: from spacings or body_cells)
   double spacings = 0.0;          ///< cell in particle spacings (0: from body_cells)
-  double body_cells = 600.0;      ///< cells the body's volume holds (600; 0 with the others 0: MLP alone)
+  double body_cells = 2000.0;     ///< most cells the body's volume holds (2000; 0 with the others 0: MLP alone)
+  /// With body_cells: the cell is no finer than the body's mean thickness 4 V / A (a square bar's
+  /// side) over this many, so compact bodies keep coarser cells than slender ones (6; 0: off)
+  double thickness_cells = 6.0;
   int degree = 2;                 ///< 1 trilinear, 2 C1 quadratic, 3 C2 cubic (2)
   DemGridQuadrature quadrature = DemGridQuadrature::kCells;  ///< Gauss points in cells, or the particles (kCells)
   int gauss_points = 2;           ///< Gauss points per axis and cell, kCells (2)
   int boundary_levels = 1;        ///< times a cut cell is split 2 x 2 x 2, kCells (1)
   double extension_fill = 0.25;   ///< nodes touching no cell filled this much are extrapolated; 0: off (0.25)
   int newton_iterations = 30;     ///< Newton iterations of the grid solve (30)
+  /// Nested grid solve, kCells: each load step's Newton runs first on this many coarser grids
+  /// (cells nested_ratio^k times larger, coarsest first), whose answers, moved to the grid by least
+  /// squares, start its own Newton; the answer is the grid's (1; 0: off)
+  int nested_levels = 1;
+  double nested_ratio = 2.0;      ///< cell ratio between nested levels, > 1 (2)
   double refine_band = 1.0;       ///< particles within this many cells of a region split 2 x 2 x 2, kParticles (1)
   double surface_share = 0.04;    ///< share of energyWeights() in the particle weights, kParticles (0.04)
 };

@@ -66,6 +66,9 @@ struct GridNewtonConfig {
   /// at least this share by the quadrature are extrapolated from a nearby filled cell instead of
   /// being unknowns (0: every node the quadrature sees is an unknown).
   double extension_fill = 0.0;
+  /// The Newton starts near its minimum (the nested solve's fine grid, started from a coarse
+  /// grid's answer): a new factorisation is tried without a shift before Lanczos looks for one.
+  bool near_minimum = false;
   /// Threads of the assembly and the energy evaluations (0: every core).
   int threads = 0;
   /// Called after each assembly with the iteration, the energy and the relative residual; it may

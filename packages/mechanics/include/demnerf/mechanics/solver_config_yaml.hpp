@@ -4,7 +4,7 @@
 // SimulateOptions, DemConfig's parts as nested sections (config/solvers.yaml lists every key with
 // its default and meaning):
 //
-//   dem:     {load_steps: 0, grid: {cell: 0, body_cells: 600}, network: {width: 64}, ...}  DemConfig
+//   dem:     {load_steps: 0, grid: {cell: 0, body_cells: 2000}, network: {width: 64}, ...}  DemConfig
 //   fem:     {linear_solver: ldlt, ordering: amd, ...}             FemConfig
 //   pinn:    {width: 64, ...}                                      PinnConfig
 //   voxel:   {cell: 0, order: 2}                                   VoxelMeshConfig (FEM mesh)

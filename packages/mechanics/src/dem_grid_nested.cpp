@@ -1,0 +1,103 @@
+// The DEM feature grid's nested solve (DemConfig::grid.nested_levels): each load step's Newton
+// runs first on coarser grids, whose answers start the Newton on the grid itself.
+//
+// Why: the grid's Newton from rest takes 12-14 iterations on the T-bar twist (a 21 degree twist
+// in one load step), each an assembly and a sparse factorisation whose cost grows faster than the
+// unknowns. A coarse grid takes the same iterations for a fraction of the cost, and from its answer
+// the fine grid's Newton needs a few (docs/dem_feature_grid.md, "Nested grids"). Only the start
+// changes: the answer is the fine grid's minimiser, held to the same convergence test and checks.
+//
+// Each coarse level solves for a correction C_k to the current field (the fine grid's share is in
+// the level's offset, frozen), starting at zero, so no level can leave a worse state than it found;
+// the correction is then moved onto the fine grid by weighted least squares at the fine grid's
+// quadrature points (grid_transfer.hpp) and added to its coefficients.
+#include <torch/torch.h>
+
+#include <chrono>
+#include <cmath>
+#include <iostream>
+
+#include "demnerf/mechanics/cell_quadrature.hpp"
+#include "dem_solver_impl.hpp"
+#include "grid_transfer.hpp"
+
+namespace demnerf::mechanics {
+
+using torch_support::toTensor;
+
+// The coarse grids over the fine grid's box (lo, hi), coarsest first.
+void DemSolver::Impl::makeCoarseLevels(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
+  coarse_levels.clear();
+  if (config.grid.quadrature != DemConfig::GridQuadrature::kCells) return;
+  for (int k = config.grid.nested_levels; k >= 1; --k) {
+    CoarseLevel level;
+    level.grid = std::make_unique<BsplineGrid>(lo, hi, config.grid.cell * std::pow(config.grid.nested_ratio, k),
+                                               config.grid.degree);
+    coarse_levels.push_back(std::move(level));
+  }
+}
+
+// Each level's cell quadrature (once: it depends on the cloud and the grid) and its lift (per
+// scenario), as buildGridQuadrature() does for the grid.
+void DemSolver::Impl::buildCoarseQuadratures() {
+  for (CoarseLevel& level : coarse_levels) {
+    if (level.points.empty()) {
+      const auto start = std::chrono::steady_clock::now();
+      CellQuadratureConfig cq;
+      cq.points_per_axis = config.grid.gauss_points;
+      // A coarse level only starts the fine Newton: its cut cells are moment-fitted whole (no
+      // split), which costs an eighth of the inside test's probes and of the points.
+      cq.boundary_levels = 0;
+      cq.threads = config.threads;
+      CellQuadrature q = cellQuadrature(cloud, *level.grid, cq);
+      level.points = std::move(q.points);
+      level.volume = std::move(q.weights);
+      if (config.verbose)
+        std::cerr << "dem: nested level (cells of " << level.grid->cell() << " m): " << level.points.size()
+                  << " points in " << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()
+                  << " s\n";
+    }
+    level.lift = dirichletLift(scenario, level.points, length, &held);
+    level.x = toTensor(level.points, dtype);
+    level.lift_t[0] = toTensor(level.lift.g, dtype);
+    level.lift_t[1] = toTensor(level.lift.grad_g, dtype);
+    level.lift_t[2] = toTensor(level.lift.D, dtype);
+    level.lift_t[3] = toTensor(level.lift.grad_D, dtype);
+  }
+}
+
+GridNewtonConfig DemSolver::Impl::newtonSettings(GridNewtonCache& cache, int before, double scale) {
+  GridNewtonConfig newton;
+  newton.near_minimum = &cache == &grid_newton_cache && !coarse_levels.empty();
+  newton.max_iterations = config.grid.newton_iterations;
+  newton.extension_fill = config.grid.extension_fill;
+  newton.threads = config.threads;
+  newton.cache = &cache;
+  newton.on_iteration = [this, before, scale](int it, double energy, double residual) {
+    tick("newton", scale, before + it, energy, residual);
+  };
+  return newton;
+}
+
+// The coarse levels' corrections at load `scale`, each added to the grid's coefficients. A level
+// that does not converge still hands on its last (lower-energy) state: the fine Newton decides.
+void DemSolver::Impl::solveCoarseLevels(double scale, int& iterations) {
+  torch::NoGradGuard guard;
+  for (CoarseLevel& level : coarse_levels) {
+    const GridFieldProblem pb = fieldProblem(level.points, level.volume, level.lift, level.x, level.lift_t, scale, true);
+    Eigen::MatrixXd C = Eigen::MatrixXd::Zero(level.grid->nodeCount(), 3);
+    const GridNewtonOutcome outcome =
+        minimiseGridField(pb, *material, *level.grid, C, newtonSettings(level.cache, iterations, scale));
+    iterations += outcome.iterations;
+    if (config.verbose)
+      std::cerr << "dem: nested level (cells of " << level.grid->cell() << " m) " << outcome.iterations
+                << " its, energy " << outcome.energy << ", residual " << outcome.residual << "; assembly "
+                << outcome.assembly_seconds << " s, factorisation " << outcome.factorisation_seconds << " s\n";
+    if (outcome.iterations == 0) continue;
+    // The Newton's unknowns are in metres (c C): the grid's parameter is in units of the output scale.
+    const Eigen::MatrixXd moved = transferGridField(*level.grid, C, *grid, gq_points, gq_volume);
+    setGridCoefficients(toEigen(grid_coef.detach()) + moved / out_scale);
+  }
+}
+
+}  // namespace demnerf::mechanics

@@ -1,0 +1,82 @@
+#include "grid_transfer.hpp"
+
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
+#include <algorithm>
+#include <string>
+
+#include "demnerf/core/error.hpp"
+
+namespace demnerf::mechanics {
+
+Eigen::MatrixXd transferGridField(const BsplineGrid& from, const Eigen::MatrixXd& C_from, const BsplineGrid& to,
+                                  const std::vector<Eigen::Vector3d>& points, const std::vector<double>& weights) {
+  if (C_from.rows() != from.nodeCount() || C_from.cols() != 3)
+    throw core::Error("grid transfer: the coefficients must be nodeCount x 3 of the grid they belong to");
+  if (points.size() != weights.size())
+    throw core::Error("grid transfer: " + std::to_string(points.size()) + " points but " +
+                      std::to_string(weights.size()) + " weights");
+  const int S_from = from.supportSize(), S_to = to.supportSize();
+  std::vector<long> nodes_from(S_from), nodes_to(S_to);
+  std::vector<double> N_from(S_from), N_to(S_to);
+  std::vector<Eigen::Vector3d> unused(std::max(S_from, S_to));
+  // The normal equations M C = b on the nodes the points see (M: the weighted mass matrix), summed
+  // per cell of `to` (its points share their nodes) and scattered once per cell.
+  std::vector<std::size_t> order;
+  std::vector<long> cell_of(points.size());
+  for (std::size_t q = 0; q < points.size(); ++q)
+    if (weights[q] > 0) {
+      order.push_back(q);
+      cell_of[q] = to.cellIndex(points[q]);
+    }
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return cell_of[a] < cell_of[b]; });
+  std::vector<long> local(to.nodeCount(), -1), active;
+  std::vector<Eigen::Triplet<double>> entries;
+  std::vector<Eigen::Vector3d> rhs;
+  Eigen::MatrixXd block(S_to, S_to);
+  for (std::size_t k = 0; k < order.size();) {
+    block.setZero();
+    const long cell = cell_of[order[k]];
+    for (; k < order.size() && cell_of[order[k]] == cell; ++k) {
+      const std::size_t q = order[k];
+      from.evaluate(points[q], nodes_from.data(), N_from.data(), unused.data());
+      to.evaluate(points[q], nodes_to.data(), N_to.data(), unused.data());
+      Eigen::Vector3d value = Eigen::Vector3d::Zero();
+      for (int s = 0; s < S_from; ++s) value += N_from[s] * C_from.row(nodes_from[s]).transpose();
+      const Eigen::Map<const Eigen::VectorXd> phi(N_to.data(), S_to);
+      block.noalias() += weights[q] * phi * phi.transpose();
+      for (int s = 0; s < S_to; ++s) {
+        long& l = local[nodes_to[s]];
+        if (l < 0) {
+          l = static_cast<long>(active.size());
+          active.push_back(nodes_to[s]);
+          rhs.emplace_back(Eigen::Vector3d::Zero());
+        }
+        rhs[l] += weights[q] * N_to[s] * value;
+      }
+    }
+    // Every point of a cell has the same nodes: the last point's are the cell's.
+    for (int s = 0; s < S_to; ++s)
+      for (int t = 0; t < S_to; ++t)
+        entries.emplace_back(local[nodes_to[s]], local[nodes_to[t]], block(s, t));
+  }
+  Eigen::MatrixXd C = Eigen::MatrixXd::Zero(to.nodeCount(), 3);
+  const long n = static_cast<long>(active.size());
+  if (n == 0) return C;
+  Eigen::SparseMatrix<double> M(n, n);
+  M.setFromTriplets(entries.begin(), entries.end());
+  // A node whose support the points barely reach has a tiny column, nearly dependent on its
+  // neighbours': a ridge of 1e-10 of the mean diagonal keeps the factorisation defined and moves
+  // the well-seen nodes by rounding only (the Newton's extension then replaces such nodes anyway).
+  const double ridge = 1e-10 * M.diagonal().mean();
+  for (long a = 0; a < n; ++a) M.coeffRef(a, a) += ridge;
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> factor(M);
+  if (factor.info() != Eigen::Success) throw core::Error("grid transfer: the mass matrix could not be factorised");
+  Eigen::MatrixXd b(n, 3);
+  for (long a = 0; a < n; ++a) b.row(a) = rhs[a].transpose();
+  const Eigen::MatrixXd solved = factor.solve(b);
+  for (long a = 0; a < n; ++a) C.row(active[a]) = solved.row(a);
+  return C;
+}
+
+}  // namespace demnerf::mechanics

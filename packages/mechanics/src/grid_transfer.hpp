@@ -1,0 +1,21 @@
+#pragma once
+// Moving a B-spline field from one grid to another (the DEM's nested grid solve,
+// dem_grid_nested.cpp): the answer of a coarse grid starts the Newton on the fine one.
+// Private to packages/mechanics/src.
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "demnerf/mechanics/bspline_grid.hpp"
+
+namespace demnerf::mechanics {
+
+/// The coefficients (to.nodeCount() x 3) whose field N_to C best fits N_from C_from in weighted
+/// least squares at the points, sum_q w_q |N_to(x_q) C - N_from(x_q) C_from|^2. Exact (to rounding)
+/// when the field lies in `to`'s span and the points determine it: a coarse grid's field on a grid
+/// with its cells halved and aligned (knot insertion). Nodes no point sees get 0. Throws
+/// core::Error for mismatched sizes.
+Eigen::MatrixXd transferGridField(const BsplineGrid& from, const Eigen::MatrixXd& C_from, const BsplineGrid& to,
+                                  const std::vector<Eigen::Vector3d>& points, const std::vector<double>& weights);
+
+}  // namespace demnerf::mechanics

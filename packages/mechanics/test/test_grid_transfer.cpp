@@ -1,0 +1,100 @@
+// The nested grid solve's transfer of a coarse grid's field onto the fine grid
+// (src/grid_transfer.hpp): exact where the fine grid holds the field, the least-squares best where
+// it does not.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "../src/grid_transfer.hpp"
+#include "demnerf/core/error.hpp"
+
+namespace demnerf::mechanics {
+namespace {
+
+// Points with weights in the part x < 0.5 of the box [0, 0.8] x [0, 0.6] x [0, 0.4], so that some
+// nodes of either grid are seen by no point.
+struct Points {
+  std::vector<Eigen::Vector3d> x;
+  std::vector<double> w;
+  explicit Points(int count, unsigned seed = 5) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    for (int i = 0; i < count; ++i) {
+      x.emplace_back(0.5 * unit(rng), 0.6 * unit(rng), 0.4 * unit(rng));
+      w.push_back(0.5 + unit(rng));
+    }
+  }
+};
+
+Eigen::Vector3d field(const BsplineGrid& grid, const Eigen::MatrixXd& C, const Eigen::Vector3d& x) {
+  std::vector<long> nodes(grid.supportSize());
+  std::vector<double> N(grid.supportSize());
+  std::vector<Eigen::Vector3d> dN(grid.supportSize());
+  grid.evaluate(x, nodes.data(), N.data(), dN.data());
+  Eigen::Vector3d u = Eigen::Vector3d::Zero();
+  for (int s = 0; s < grid.supportSize(); ++s) u += N[s] * C.row(nodes[s]).transpose();
+  return u;
+}
+
+TEST(GridTransfer, IsExactForACoarseFieldOnHalvedCells) {
+  // Aligned grids, the fine one with half the cell: every coarse quadratic B-spline is a sum of
+  // fine ones (knot insertion), so the least-squares fit must reproduce the field to rounding.
+  const Eigen::Vector3d lo = Eigen::Vector3d::Zero(), hi(0.8, 0.6, 0.4);
+  const BsplineGrid coarse(lo, hi, 0.2, 2), fine(lo, hi, 0.1, 2);
+  ASSERT_TRUE(coarse.origin().isZero() && fine.origin().isZero());
+  std::mt19937 rng(2);
+  std::normal_distribution<double> normal;
+  Eigen::MatrixXd C(coarse.nodeCount(), 3);
+  for (long i = 0; i < C.size(); ++i) C(i) = normal(rng);
+  const Points points(6000);
+  const Eigen::MatrixXd moved = transferGridField(coarse, C, fine, points.x, points.w);
+  const Points probes(500, 9);
+  double worst = 0.0, scale = 0.0;
+  for (const Eigen::Vector3d& x : probes.x) {
+    worst = std::max(worst, (field(fine, moved, x) - field(coarse, C, x)).norm());
+    scale = std::max(scale, field(coarse, C, x).norm());
+  }
+  EXPECT_GT(scale, 0.5);
+  EXPECT_LT(worst, 1e-8 * scale);
+  // Nodes whose support no point reaches (x > 0.7: cells right of 0.5 plus the quadratic's reach)
+  // are left at zero.
+  EXPECT_EQ(moved.row(fine.nodeCount() - 1).norm(), 0.0);
+}
+
+TEST(GridTransfer, IsTheLeastSquaresBestOnAnUnrelatedGrid) {
+  // Cells of 0.13 against 0.2: the coarse field is not in the target's span. The fit's residual must
+  // then be orthogonal to every target function the points see (the normal equations), and the fit
+  // closer than the target grid's zero field by far.
+  const Eigen::Vector3d lo = Eigen::Vector3d::Zero(), hi(0.8, 0.6, 0.4);
+  const BsplineGrid coarse(lo, hi, 0.2, 2), other(lo, hi, 0.13, 2);
+  std::mt19937 rng(4);
+  std::normal_distribution<double> normal;
+  Eigen::MatrixXd C(coarse.nodeCount(), 3);
+  for (long i = 0; i < C.size(); ++i) C(i) = normal(rng);
+  const Points points(6000);
+  const Eigen::MatrixXd moved = transferGridField(coarse, C, other, points.x, points.w);
+  Eigen::MatrixXd normal_residual = Eigen::MatrixXd::Zero(other.nodeCount(), 3);
+  double misfit = 0.0, total = 0.0;
+  std::vector<long> nodes(other.supportSize());
+  std::vector<double> N(other.supportSize());
+  std::vector<Eigen::Vector3d> dN(other.supportSize());
+  for (std::size_t q = 0; q < points.x.size(); ++q) {
+    const Eigen::Vector3d r = field(other, moved, points.x[q]) - field(coarse, C, points.x[q]);
+    misfit += points.w[q] * r.squaredNorm();
+    total += points.w[q] * field(coarse, C, points.x[q]).squaredNorm();
+    other.evaluate(points.x[q], nodes.data(), N.data(), dN.data());
+    for (int s = 0; s < other.supportSize(); ++s) normal_residual.row(nodes[s]) += points.w[q] * N[s] * r.transpose();
+  }
+  EXPECT_LT(normal_residual.cwiseAbs().maxCoeff(), 1e-8 * std::sqrt(total));
+  EXPECT_LT(misfit, 0.05 * total);
+}
+
+TEST(GridTransfer, RefusesMismatchedSizes) {
+  const BsplineGrid grid(Eigen::Vector3d::Zero(), Eigen::Vector3d::Ones(), 0.5, 2);
+  const Points points(10);
+  EXPECT_THROW(transferGridField(grid, Eigen::MatrixXd::Zero(3, 3), grid, points.x, points.w), core::Error);
+  EXPECT_THROW(transferGridField(grid, Eigen::MatrixXd::Zero(grid.nodeCount(), 3), grid, points.x, {1.0}), core::Error);
+}
+
+}  // namespace
+}  // namespace demnerf::mechanics
