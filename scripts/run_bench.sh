@@ -23,6 +23,7 @@ declare -A COMMANDS=(
   # >= 33 dB in 30 s; fox: >= 28 dB in 60 s, >= 30 dB in 300 s.
   [nerf_train]="--data $TBAR --cpu-seconds 120 --eval-every 20 --csv $OUT/nerf_tbar.csv --plot $OUT/nerf_tbar.png"
   [nerf_train_fox]="--data $ROOT/../shared/data/fox --downscale 4 --config $ROOT/packages/nerf/config/nerf_fox.yaml --cpu-seconds 600 --eval-every 120 --csv $OUT/nerf_fox.csv --plot $OUT/nerf_fox.png"
+  [nerf_train_fox_views]="--data $ROOT/../shared/data/fox --downscale 4 --config $ROOT/packages/nerf/config/nerf_fox_views.yaml --cpu-seconds 600 --eval-every 120 --csv $OUT/nerf_fox_views.csv --plot $OUT/nerf_fox_views.png"
   [geometry_tbar_extraction]="--work $OUT/extraction --resolution 192 --repeat 3"
   [mechanics_cook]=""
   [mechanics_dem]="case=uniaxial seeds=3 width=16 depth=2 iters=1000 lr=1e-2"
@@ -34,8 +35,8 @@ declare -A COMMANDS=(
   [mechanics_matrix]="out=$OUT/mechanics_matrix ${MATRIX_ARGS:-}"
 )
 # Entries that run another entry's binary with other arguments.
-declare -A BINARIES=([mechanics_dem_tbar_grid]=mechanics_dem [nerf_train_fox]=nerf_train)
-ORDER=(render_synth_bench geometry_sampling_bench nerf_kernels nerf_train nerf_train_fox geometry_tbar_extraction mechanics_cook mechanics_dem
+declare -A BINARIES=([mechanics_dem_tbar_grid]=mechanics_dem [nerf_train_fox]=nerf_train [nerf_train_fox_views]=nerf_train)
+ORDER=(render_synth_bench geometry_sampling_bench nerf_kernels nerf_train nerf_train_fox nerf_train_fox_views geometry_tbar_extraction mechanics_cook mechanics_dem
        mechanics_dem_tbar_grid mechanics_pinn mechanics_convergence mechanics_matrix)
 status=0
 for name in ${BENCH:-${ORDER[@]}}; do
