@@ -134,16 +134,15 @@ bool lineSearch(const GridFieldEnergy& energy, const Unknowns& unknowns, const E
 
 // The gradient at the iterate (in the unknowns) and the Hessian there. In Newton's quadratic phase
 // the residual is mostly converged already: the gradient alone (a fraction of an assembly) is
-// computed first, and false returned without a Hessian when its norm is within `converged`.
-bool assembleAt(const GridFieldEnergy& energy, const Unknowns& unknowns, const Iterate& x, bool quadratic,
+// computed first, and the Hessian skipped when its norm is within `converged` (Newton stops there).
+void assembleAt(const GridFieldEnergy& energy, const Unknowns& unknowns, const Iterate& x, bool quadratic,
                 double converged, Eigen::VectorXd& gradient, Eigen::SparseMatrix<double>& hessian) {
   if (quadratic) {
     gradient = unknowns.projectGradient(energy.gradient(x.c));
-    if (gradient.norm() <= converged) return false;
+    if (gradient.norm() <= converged) return;
   }
   energy.derivatives(x.c, gradient, hessian);
   gradient = unknowns.projectGradient(gradient);
-  return true;
 }
 
 }  // namespace

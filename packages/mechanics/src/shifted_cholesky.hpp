@@ -43,11 +43,12 @@ class ShiftedCholesky {
     ordered_ = true;
   }
 
-  /// The last factorisation's shift (relative to each column's diagonal), their count, and whether they
-  /// are dense (a compact body's nearly full factor): for the grid Newton's verbose report.
   /// The first factorisation is tried unshifted before Lanczos, as later ones are after an
   /// unshifted one: for a Newton that starts near its minimum (the nested grid solve's fine grid).
   void tryUnshiftedFirst() { unshifted_first_ = true; }
+
+  /// The last factorisation's shift (relative to each column's diagonal), their count, and whether they
+  /// are dense (a compact body's nearly full factor): for the grid Newton's verbose report.
   double lastShift() const { return last_shift_; }
   int factorisations() const { return factorisations_; }
   bool dense() const { return dense_; }

@@ -50,10 +50,6 @@ Lattice latticeFor(const core::Region& region, const Eigen::Vector3d& body_lo, c
   }
 }
 
-// Surface planes whose normals differ by more than 60 degrees meet at an edge (as in
-// ParticleInsideTest).
-constexpr double kEdgeCosine = 0.5;
-
 // The inside test's edge join for the loads (ParticleInsideTest::setEdgeReach): beside a gap in a
 // random cloud's face particles near an edge, a point just outside the face had the other face's
 // particle nearest and its own face's beyond one spacing more, so the band outside counted as
@@ -82,7 +78,7 @@ void patchPoints(const core::Region& region, const ParticleInsideTest& inside, c
         for (int again = 0; again < 3; ++again) {
           Eigen::Vector3d next;
           const double dq = inside.signedDistance(q, &next);
-          if (again == 0 && dq > 0 && next.dot(n) < kEdgeCosine) d = std::max(d, dq);
+          if (again == 0 && dq > 0 && next.dot(n) < ParticleInsideTest::kEdgeCosine) d = std::max(d, dq);
           if (!(std::abs(dq) > 1e-9 * step) || next.isZero()) break;
           q -= dq * next;  // a few more projections take the foot onto the surface (the edge)
           nq = next;
@@ -109,14 +105,14 @@ SurfaceLoads surfaceLoads(const core::Scenario& scenario, const core::ParticleCl
   Eigen::Vector3d lo = cloud.positions[0], hi = lo;
   for (const Eigen::Vector3d& p : cloud.positions) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
   for (const core::Load& load : scenario.loads) {
-    core::Scenario one = scenario;
-    one.loads = {load};
     std::vector<Eigen::Vector3d> points;
     std::vector<double> areas;
     patchPoints(load.region, inside, latticeFor(load.region, lo, hi, step), points, areas);
     if (points.empty()) {
       // particleTractions() names a region that holds no surface particle; one that holds some but
       // is finer than the lattice keeps its particles' forces.
+      core::Scenario one = scenario;
+      one.loads = {load};
       const std::vector<Eigen::Vector3d> traction = particleTractions(one, cloud);
       for (std::size_t i = 0; i < cloud.size(); ++i)
         if (cloud.areas[i] > 0 && traction[i].squaredNorm() > 0) {

@@ -170,6 +170,7 @@ TEST(DemGrid, NestedSolveEndsAtTheGridsOwnMinimiser) {
   config.network.width = 8;
   config.network.depth = 2;
   config.grid.cell = 0.015;
+  config.grid.nested_levels = 0;  // the default is nested: the direct solve must not be
   config.threads = 1;
   dm::DemSolver direct(cloud, s, config);
   const dm::DemReport a = direct.solve();

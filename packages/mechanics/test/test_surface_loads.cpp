@@ -62,6 +62,15 @@ Eigen::Matrix4d particleEndFaceTorques(const core::Scenario& s, const core::Part
   return endFaceTorques(cloud.positions, forces);
 }
 
+// The loads' total force and torque about the origin.
+void resultants(const dm::SurfaceLoads& loads, Vector3d& force, Vector3d& torque) {
+  force = torque = Vector3d::Zero();
+  for (std::size_t k = 0; k < loads.points.size(); ++k) {
+    force += loads.forces[k];
+    torque += loads.points[k].cross(loads.forces[k]);
+  }
+}
+
 }  // namespace
 
 TEST(SurfaceLoads, SpreadTheWrenchEvenlyWhateverTheSurfaceParticles) {
@@ -72,11 +81,8 @@ TEST(SurfaceLoads, SpreadTheWrenchEvenlyWhateverTheSurfaceParticles) {
   const core::ParticleCloud lattice = dm::makeBoxParticles(kLower, kUpper, Eigen::Vector3i(8, 6, 6));
   const double step = 0.0128 / 8;  // the default DEM's: its cell (600 body cells) / 8
   const dm::SurfaceLoads a = dm::surfaceLoads(s, random, step), b = dm::surfaceLoads(s, lattice, step);
-  Vector3d force = Vector3d::Zero(), torque = Vector3d::Zero();
-  for (std::size_t k = 0; k < a.points.size(); ++k) {
-    force += a.forces[k];
-    torque += a.points[k].cross(a.forces[k]);
-  }
+  Vector3d force, torque;
+  resultants(a, force, torque);
   EXPECT_LT(force.norm(), 1e-9);
   EXPECT_LT((torque - Vector3d(8, 0, 0)).norm(), 1e-9);
   const Eigen::Matrix4d on_random = endFaceTorques(a.points, a.forces), on_lattice = endFaceTorques(b.points, b.forces);
@@ -118,13 +124,6 @@ TEST(SurfaceLoads, OtherRegionsCarryTheExactWrenchToo) {
   // around one surface particle keeps that particle's force.
   core::Scenario s = cuboidTwist();
   const core::ParticleCloud cloud = dm::test::randomSurfaceBox(kLower, kUpper, 1.0 / 60, 3);
-  const auto resultants = [](const dm::SurfaceLoads& loads, Vector3d& force, Vector3d& torque) {
-    force = torque = Vector3d::Zero();
-    for (std::size_t k = 0; k < loads.points.size(); ++k) {
-      force += loads.forces[k];
-      torque += loads.points[k].cross(loads.forces[k]);
-    }
-  };
   Vector3d force, torque;
   s.loads[0].region.type = core::Region::Type::kHalfspace;
   s.loads[0].region.center = Vector3d(0.12, 0, 0);

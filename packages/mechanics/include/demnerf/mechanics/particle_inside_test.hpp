@@ -44,15 +44,15 @@ class ParticleInsideTest {
   /// extraction's bumpy surface they join bumps as edges (the T-bar's NeRF clouds 0.4-0.5 % worse
   /// in rel. L2), so the volume quadrature keeps one.
   void setEdgeReach(double spacings) { edge_reach_ = spacings; }
+  /// Surface particles whose normals differ by more than this angle (cos 60 deg) lie on different
+  /// faces: an edge between them (distanceNear(); surfaceLoads() tells edges the same way).
+  static constexpr double kEdgeCosine = 0.5;
 
  private:
   static constexpr double kSurfaceRadius = 2.0;  ///< in particle spacings
   /// Beyond kSurfaceRadius of every surface particle, a point is inside when a volume-carrying
   /// particle is within this many spacings (clouds with surface particles; signedDistance()).
   static constexpr double kDeepReach = 1.5;
-  /// Surface particles whose normals differ by more than this angle (cos 60 deg) lie on different
-  /// faces: an edge between them (behindSurfaceNear).
-  static constexpr double kEdgeCosine = 0.5;
   Eigen::Vector3i bucket(const Eigen::Vector3d& x) const;
   long bucketIndex(const Eigen::Vector3i& c) const;  ///< -1 outside the table
   template <typename Visit>

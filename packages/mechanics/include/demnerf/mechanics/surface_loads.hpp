@@ -8,7 +8,7 @@
 // grid resolves that unevenness, and a rough load does extra work on the dimples it makes: the
 // cuboid twist came out 3.2 % (1/6), 1.5 % (1/10) and 0.6 % (1/15) too low in energy on random
 // clouds, about as 1 / (loaded particles), and within 0.4 % on grid and Poisson clouds (docs/
-// dem_feature_grid.md, "A load as even as the surface"). The FEM integrates the same traction
+// dem_feature_grid.md, "Loads spread over the surface"). The FEM integrates the same traction
 // over the exact faces.
 
 #include <Eigen/Core>
