@@ -42,8 +42,10 @@ DemSolver::DemSolver(core::ParticleCloud cloud, const core::Scenario& scenario, 
   m.load_input_scale = std::max(std::abs(config.parametric.load_range_min), std::abs(config.parametric.load_range_max));
   m.eye3 = torch::eye(3, torch::TensorOptions().dtype(m.dtype)).unsqueeze(0);
   m.rng.seed(static_cast<unsigned>(config.network.seed));
+  const Eigen::Vector3d input_half =
+      config.network.thickness_inputs ? Eigen::Vector3d::Constant(box.half.minCoeff()) : box.half;
   m.net = DisplacementMlp(config.parametric.enabled ? 1 : 0, config.network.width, config.network.depth, config.network.activation, box.center,
-                          box.half, m.dtype);
+                          input_half, m.dtype, config.network.first_layer_scale);
   if (config.grid.cell > 0) {
     // The cell quadrature gets half a spacing of margin: a lattice cloud whose outer particles
     // carry whole cells of volume describes a body that far beyond its particles
