@@ -20,7 +20,11 @@ std::vector<Field> networkFields(DemNetworkConfig& c) {
           integer(s, "depth", c.depth, 1, kMany, "hidden layers of the MLP"),
           choice(s, "activation", c.activation, words({"tanh", "sigmoid", "softplus", "sin"}), "MLP activation"),
           integer(s, "seed", c.seed, std::numeric_limits<int>::min(), kMany, "random seed"),
-          flag(s, "double_precision", c.double_precision, "float64 instead of float32")};
+          flag(s, "double_precision", c.double_precision, "float64 instead of float32"),
+          flag(s, "fused", c.fused, "the MLP alone's loss by the hand-written kernel instead of autograd"),
+          number(s, "first_layer_scale", c.first_layer_scale, 0, true, kInf, "the first layer's initial weights x this"),
+          flag(s, "thickness_inputs", c.thickness_inputs,
+               "inputs normalised by the body's smallest half-extent on every axis, not each axis's own")};
 }
 
 std::vector<Field> trainingFields(DemConfig& c) {
@@ -49,6 +53,8 @@ std::vector<Field> trainingFields(DemConfig& c) {
              "reject a polish that lowers the energy more than this x |Pi|"),
       number(l, "max_growth", c.lbfgs.max_growth, 0, true, kInf, "reject a polish that grows max |u| more than this"),
       number(l, "tolerance", c.lbfgs.tolerance, 0, false, kInf, "L-BFGS stops when the loss changes less than this"),
+      number(l, "cell_spacings", c.lbfgs.cell_spacings, 0, false, kInf,
+             "sampled L-BFGS on Gauss points in cells of this many particle spacings (0: the particles)"),
   };
 }
 

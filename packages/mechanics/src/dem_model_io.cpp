@@ -54,7 +54,8 @@ nlohmann::json toJson(const DemConfig& c) {
           {"load_range_max", c.parametric.load_range_max},
           {"parametric_samples", c.parametric.samples},
           {"seed", c.network.seed},
-          {"double_precision", c.network.double_precision}};
+          {"double_precision", c.network.double_precision},
+          {"thickness_inputs", c.network.thickness_inputs}};
 }
 
 // Threads, verbosity and the allocator switch belong to the machine that loads the model.
@@ -104,6 +105,8 @@ DemConfig configFromJson(const nlohmann::json& j) {
   c.parametric.samples = j.at("parametric_samples");
   c.network.seed = j.at("seed");
   c.network.double_precision = j.at("double_precision");
+  // The network's input normalisation (files written before it existed: per axis).
+  c.network.thickness_inputs = j.value("thickness_inputs", false);
   return c;
 }
 

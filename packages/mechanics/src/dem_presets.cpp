@@ -9,11 +9,13 @@ namespace demnerf::mechanics {
 
 // The MLP alone, solved as the DEM reference code solves it: full-batch L-BFGS with a strong-Wolfe
 // line search, the fixtures held exactly (u = g + D z, the reference code's u = x z), one load
-// step. Measured on Beam3D's 1,512 grid particles (docs/dem_feature_grid.md, "The MLP alone"): Adam
-// at 1500 steps leaves the tip 95 % off and the penalty boundary keeps L-BFGS 38 % off after 1000
-// evaluations; a fixed quadrature is exploited within 600 (energy 7x the FEM's), mirrored jitter
-// draws are not, and 800 iterations reach the tip to 0.3 % in 9 CPU-s. 30 x 3 in float32: twice
-// as fast an evaluation as 64 x 3 or float64, with the same answer.
+// step, 800 iterations, the loss and gradient by the fused kernel (network.fused). Measured on
+// Beam3D (docs/dem_feature_grid.md, "The MLP alone"): Adam at 1500 steps leaves the tip 95 % off
+// and the penalty boundary 26 % after 800 iterations; on the particles (mirrored jitter draws) the
+// grid clouds pass but a Poisson cloud's midpoint rule is exploited (refused, tip 26 % / 7 % off at
+// 1/6 / 1/10), so the quadrature is Gauss points in cells of one particle spacing, no finer than a
+// sixth of the smallest dimension (lbfgs.cell_spacings): the tip within 0.9 % on the grid, Poisson
+// and random clouds at 1/6 and 1/10, every answer passing the check. 30 x 3 in float32.
 DemConfig paperDemConfig() {
   DemConfig config;
   config.grid.cell = 0.0;
@@ -24,7 +26,8 @@ DemConfig paperDemConfig() {
   config.boundary.kind = DemConfig::Boundary::kExact;
   config.adam.iterations = 0;
   config.lbfgs.iterations = 800;
-  config.lbfgs.sample_iterations = 20;
+  config.lbfgs.sample_iterations = 20;  // with cells: the first draws' length, between output balances
+  config.lbfgs.cell_spacings = 1.0;
   config.load_steps = 1;
   return config;
 }

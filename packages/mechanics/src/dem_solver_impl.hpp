@@ -10,6 +10,7 @@
 //   dem_solver.cpp     the public DemSolver: validation, particle sets, load stepping, answers
 
 #include <Eigen/Core>
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <random>
@@ -109,6 +110,12 @@ struct DemSolver::Impl {
   JitterDraw drawJitter() const;
   Tensor loss(double scale, double* energy, double* min_J, bool jitter = false, const JitterDraw* draw = nullptr) const;
   double energyWithAmplitude(double scale, double alpha);
+  // dem_fused_loss.cpp: the same loss on a draw by mlp_energy_kernel.hpp, its gradient into .grad.
+  bool fusedLossAvailable() const;
+  Tensor fusedLoss(double scale, const JitterDraw& draw, bool gradient, double* energy, double* min_J);
+  // ...and the fixed cell quadrature lbfgs.cell_spacings asks for (built at the first solve).
+  JitterDraw cell_draw;
+  const JitterDraw& cellDraw();
   void rescaleOutput(double scale);
   std::vector<Tensor> snapshot() const { return torch_support::snapshot(parameters()); }
   void restore(const std::vector<Tensor>& s) { torch_support::restore(parameters(), s); }
@@ -179,6 +186,10 @@ struct DemSolver::Impl {
   bool runAdam(double scale, int& iterations);
   void polishWithLbfgs(double scale, int& iterations, DemReport& report);
   void trainWithSampledLbfgs(double scale, int& iterations);
+  static constexpr int kBalanceDraws = 4;  // jitter draws after which the output may be balanced
+  bool balanceOutput(double scale);
+  void sampledLbfgsRun(double scale, int& iterations, int count, bool fused, JitterDraw& draw,
+                       std::chrono::steady_clock::time_point& last);
 };
 
 /// Row-major tensor (rows x cols) -> Eigen, in double.

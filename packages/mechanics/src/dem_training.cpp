@@ -154,7 +154,8 @@ bool DemSolver::Impl::train(double scale, int& iterations, DemReport& report) {
   if (newton) solveOutputLayer(scale);
   if (grid && config.adam.iterations > 0 && !solveGrid(scale, iterations)) return false;
   if (config.lbfgs.iterations > 0) {
-    if (config.lbfgs.sample_iterations > 0 && config.adam.jitter && n_band > 0) trainWithSampledLbfgs(scale, iterations);
+    if (config.lbfgs.sample_iterations > 0 && ((config.adam.jitter && n_band > 0) || config.lbfgs.cell_spacings > 0))
+      trainWithSampledLbfgs(scale, iterations);
     else polishWithLbfgs(scale, iterations, report);
   }
   torch::NoGradGuard guard;
@@ -240,13 +241,50 @@ void DemSolver::Impl::polishWithLbfgs(double scale, int& iterations, DemReport& 
 // equilibrium check after the solve judges the answer.
 void DemSolver::Impl::trainWithSampledLbfgs(double scale, int& iterations) {
   JitterDraw draw;
+  const bool fused = fusedLossAvailable();  // the loss sets the gradient itself (no graph)
   auto last = std::chrono::steady_clock::now();
+  const int per_draw = std::max(1, config.lbfgs.sample_iterations);
+  int done = 0;
+  // The first draws one at a time, each followed by balanceOutput(), while the amplitude is off by
+  // more than 2x; then the rest in one run (one L-BFGS history across its draws).
+  for (int balance = 0; balance < kBalanceDraws && done + per_draw < config.lbfgs.iterations; ++balance) {
+    sampledLbfgsRun(scale, iterations, per_draw, fused, draw, last);
+    done += per_draw;
+    if (!balanceOutput(scale)) break;
+  }
+  sampledLbfgsRun(scale, iterations, config.lbfgs.iterations - done, fused, draw, last);
+}
+
+// Output balance: the network's output z is kept O(1) (largest |z| over the particles between
+// 1/2 and 2) by moving its amplitude into out_scale, a reparametrisation that leaves u unchanged.
+// The a-priori scale (traction x length / E) is 60-140x below the answer on Beam3D and the T-bar
+// twist, and the output layer's weights growing to that size make the hidden layers' curvature
+// ~1e4 times the output layer's, which L-BFGS's scalar initial Hessian does not bridge. True when
+// it rescaled (the L-BFGS history, for the old parameters, must restart).
+bool DemSolver::Impl::balanceOutput(double scale) {
+  torch::NoGradGuard guard;
+  const double zmax = net.forward(xv, loadInput(xv, scale), 0).value.abs().max().item<double>();
+  if (!(zmax > 0) || !std::isfinite(zmax) || (zmax > 0.5 && zmax < 2.0)) return false;
+  net.weights().back().div_(zmax);
+  net.biases().back().div_(zmax);
+  out_scale *= zmax;
+  energy_scale *= zmax * zmax;
+  if (config.verbose) std::cerr << "dem: output balanced x" << zmax << " -> " << out_scale << " m\n";
+  return true;
+}
+
+// `count` L-BFGS iterations on jitter draws, a fresh history (trainWithSampledLbfgs).
+void DemSolver::Impl::sampledLbfgsRun(double scale, int& iterations, int count, bool fused, JitterDraw& draw,
+                                      std::chrono::steady_clock::time_point& last) {
+  if (count <= 0) return;
+  // The cell quadrature is one fixed draw: a single run, one history.
+  const bool cells = config.lbfgs.cell_spacings > 0;
   runSampledLbfgs(
-      parameters(), config.lbfgs.iterations, config.lbfgs.sample_iterations, config.lbfgs.history,
+      parameters(), count, cells ? count : config.lbfgs.sample_iterations, config.lbfgs.history,
       config.lbfgs.tolerance,
       [&] {
         double jm = 0;
-        Tensor l = loss(scale, nullptr, &jm, true, &draw);
+        Tensor l = fused ? fusedLoss(scale, draw, true, nullptr, &jm) : loss(scale, nullptr, &jm, true, &draw);
         const double value = l.item<double>();
         const auto now = std::chrono::steady_clock::now();
         adam_seconds += std::chrono::duration<double>(now - last).count();  // the pace the time-limit advice quotes
@@ -256,7 +294,7 @@ void DemSolver::Impl::trainWithSampledLbfgs(double scale, int& iterations) {
         tick("lbfgs", scale, iterations, value * energy_scale, std::numeric_limits<double>::quiet_NaN());
         return std::make_pair(l, std::isfinite(value) && jm > 0);
       },
-      [&] { draw = drawJitter(); });
+      [&] { draw = cells ? cellDraw() : drawJitter(); });
 }
 
 }  // namespace demnerf::mechanics

@@ -23,7 +23,8 @@ Tensor slotsTimes(const Tensor& d, const Tensor& W) {
 }  // namespace
 
 DisplacementMlp::DisplacementMlp(int extra_inputs, int width, int depth, const std::string& activation,
-                                 const Eigen::Vector3d& center, const Eigen::Vector3d& half, torch::Dtype dtype)
+                                 const Eigen::Vector3d& center, const Eigen::Vector3d& half, torch::Dtype dtype,
+                                 double first_layer_scale)
     : activation_(activation) {
   const auto options = torch::TensorOptions().dtype(dtype);
   center_ = torch_support::toTensor(std::vector<Eigen::Vector3d>{center}, dtype);
@@ -33,7 +34,7 @@ DisplacementMlp::DisplacementMlp(int extra_inputs, int width, int depth, const s
   int in = 3 + extra_inputs;
   for (int l = 0; l <= depth; ++l) {
     const int out = l == depth ? 3 : width;
-    const double bound = std::sqrt(6.0 / (in + out));
+    const double bound = std::sqrt(6.0 / (in + out)) * (l == 0 ? first_layer_scale : 1.0);
     Tensor W = (torch::rand({out, in}, options) * 2 - 1) * bound;
     if (l == depth) W.zero_();
     weights_.push_back(W.requires_grad_(true));

@@ -26,9 +26,11 @@ class DisplacementMlp {
   DisplacementMlp() = default;
   /// Inputs X normalised to [-1, 1] over the box center +- half; `extra_inputs` further inputs
   /// (not normalised, no derivatives). Hidden layers Glorot-uniform from torch's generator, the
-  /// output layer zero so training starts from the rest state (or the Dirichlet lift).
+  /// output layer zero so training starts from the rest state (or the Dirichlet lift); the first
+  /// layer's bound times first_layer_scale.
   DisplacementMlp(int extra_inputs, int width, int depth, const std::string& activation,
-                  const Eigen::Vector3d& center, const Eigen::Vector3d& half, torch::Dtype dtype);
+                  const Eigen::Vector3d& center, const Eigen::Vector3d& half, torch::Dtype dtype,
+                  double first_layer_scale = 1.0);
 
   /// Activations of the last hidden layer (value [n, width], d1 [n, 3, width], d2 [n, 6, width]).
   /// `extra` is [n, extra_inputs] or undefined when there are none.
@@ -38,6 +40,9 @@ class DisplacementMlp {
   Output forward(const torch::Tensor& x, int order) const { return forward(x, torch::Tensor(), order); }
 
   std::vector<torch::Tensor> parameters() const;
+  /// The input normalisation: X -> (X - center) * inv_half, both [1, 3] / [3] in the dtype.
+  const torch::Tensor& center() const { return center_; }
+  const torch::Tensor& invHalf() const { return inv_half_; }
   std::vector<torch::Tensor>& weights() { return weights_; }  ///< row-major out x in
   std::vector<torch::Tensor>& biases() { return biases_; }
   const std::vector<torch::Tensor>& weights() const { return weights_; }

@@ -45,13 +45,14 @@ inline torch::optim::LBFGSOptions lbfgsOptions(int iterations, int history, doub
       .line_search_fn("strong_wolfe");
 }
 
-/// evaluate() as the closure of lbfgs.step: an inadmissible point is 1e30 without a gradient.
+/// evaluate() as the closure of lbfgs.step: an inadmissible point is 1e30 without a gradient. A
+/// loss without a graph has set the parameters' gradients itself (the DEM's fused kernel).
 template <typename Evaluate>
 torch::Tensor lbfgsClosure(torch::optim::LBFGS& lbfgs, Evaluate& evaluate) {
   lbfgs.zero_grad();
   auto [loss, admissible] = evaluate();
   if (!admissible) return torch::full({}, 1e30, loss.options());
-  loss.backward();
+  if (loss.requires_grad()) loss.backward();
   return loss;
 }
 

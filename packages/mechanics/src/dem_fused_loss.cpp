@@ -1,0 +1,112 @@
+// The MLP-only DEM's loss through the hand-written kernel (mlp_energy_kernel.hpp) instead of
+// autograd: the same energy on the same points, its parameter gradient written into the
+// parameters' .grad, for the L-BFGS that trains `--method mlp`.
+#include <torch/torch.h>
+
+#include <algorithm>
+#include <iostream>
+
+#include "demnerf/mechanics/cell_quadrature.hpp"
+#include "dem_config_check.hpp"
+#include "dem_solver_impl.hpp"
+#include "mlp_energy_kernel.hpp"
+
+namespace demnerf::mechanics {
+
+using torch::Tensor;
+using torch_support::toTensor;
+
+namespace {
+
+const float* floats(const Tensor& t) { return t.defined() && t.numel() > 0 ? t.data_ptr<float>() : nullptr; }
+
+}  // namespace
+
+// What the kernel computes: the MLP alone (no feature grid, no load input) in float32 with tanh,
+// on the compressible Neo-Hookean. Anything else keeps autograd.
+bool DemSolver::Impl::fusedLossAvailable() const {
+  return config.network.fused && !grid && !config.parametric.enabled && dtype == torch::kFloat32 &&
+         config.network.activation == "tanh" && scenario.material.model == "neo_hookean" && config.network.depth >= 1;
+}
+
+// The loss on a draw (drawJitter()) and, with `gradient`, its gradient into the parameters' .grad.
+// Returns the loss (no graph), sets energy and min det F; an inadmissible point gives a NaN loss.
+Tensor DemSolver::Impl::fusedLoss(double scale, const JitterDraw& draw, bool gradient, double* energy,
+                                  double* min_J) {
+  mlp_kernel::Network nn;
+  nn.width = config.network.width;
+  nn.depth = config.network.depth;
+  mlp_kernel::Gradient grad;
+  for (std::size_t l = 0; l < net.weights().size(); ++l) {
+    nn.weights.push_back(net.weights()[l].data_ptr<float>());
+    nn.biases.push_back(net.biases()[l].data_ptr<float>());
+    if (!gradient) continue;
+    for (Tensor* p : {&net.weights()[l], &net.biases()[l]})
+      if (!p->grad().defined()) p->mutable_grad() = torch::zeros_like(*p);
+    grad.weights.push_back(net.weights()[l].grad().data_ptr<float>());
+    grad.biases.push_back(net.biases()[l].grad().data_ptr<float>());
+  }
+  const Tensor center = net.center().contiguous(), inv_half = net.invHalf().contiguous();
+  for (int k = 0; k < 3; ++k) {
+    nn.center[k] = center.data_ptr<float>()[k];
+    nn.inv_half[k] = inv_half.data_ptr<float>()[k];
+  }
+  const bool exact = config.boundary.kind == DemConfig::Boundary::kExact;
+  mlp_kernel::Problem pb;
+  pb.mu = material->mu();
+  pb.lambda = scenario.material.lambda();
+  pb.load_scale = scale;
+  pb.output_scale = out_scale;
+  pb.energy_scale = energy_scale;
+  pb.volume = {draw.x.size(0), floats(draw.x), floats(draw.vol), floats(draw.body)};
+  if (exact) {
+    pb.volume.g = floats(draw.lift[0]);
+    pb.volume.grad_g = floats(draw.lift[1]);
+    pb.volume.D = floats(draw.lift[2]);
+    pb.volume.grad_D = floats(draw.lift[3]);
+  }
+  pb.loads = {xs.size(0), floats(xs), floats(traction_area), exact ? floats(lift_s[0]) : nullptr,
+              exact ? floats(lift_s[2]) : nullptr};
+  if (!exact && xc.size(0) > 0)
+    pb.penalty = {xc.size(0), floats(xc), floats(fixed_value), floats(fixed_mask), config.boundary.penalty_weight};
+  const mlp_kernel::Result r =
+      mlp_kernel::energyAndGradient(nn, pb, gradient ? &grad : nullptr, at::get_num_threads());
+  if (energy) *energy = r.energy;
+  if (min_J) *min_J = r.min_J;
+  return torch::full({}, r.admissible ? r.loss : std::nan(""), torch::kFloat64);
+}
+
+// Gauss points (2 per axis) in the cells of a grid of lbfgs.cell_spacings particle spacings over
+// the body the cloud describes, cut cells moment-fitted (cell_quadrature.hpp), with
+// the lift there: the same points whatever sampler made the cloud.
+const DemSolver::Impl::JitterDraw& DemSolver::Impl::cellDraw() {
+  if (cell_draw.x.defined()) return cell_draw;
+  const double spacing = interiorParticleSpacing(cloud);
+  const torch_support::BodyBox box = torch_support::bodyBox(cloud);
+  const Eigen::Vector3d margin = Eigen::Vector3d::Constant(0.5 * spacing);  // as the grid DEM's
+  // No finer than a sixth of the body's smallest dimension (the matrix's coarsest spacing): past
+  // that the points' cost grows with the cloud and the field does not change (Beam3D's 1/10 grid
+  // cloud at one spacing: 32k points).
+  const double cell = std::max(config.lbfgs.cell_spacings * spacing, box.half.minCoeff() / 3.0);
+  const BsplineGrid cells(box.center - box.half - margin, box.center + box.half + margin, cell, 1);
+  CellQuadratureConfig cq;
+  cq.points_per_axis = 2;
+  cq.boundary_levels = 0;  // cut cells moment-fitted whole: split, a thin body's cells held 8x the points
+  cq.threads = config.threads;
+  const CellQuadrature q = cellQuadrature(cloud, cells, cq);
+  const DirichletLift lift = dirichletLift(scenario, q.points, length, &held);
+  std::vector<Eigen::Vector3d> body_forces(q.points.size());
+  for (std::size_t i = 0; i < q.points.size(); ++i) body_forces[i] = q.weights[i] * scenario.body_force;
+  cell_draw.x = toTensor(q.points, dtype);
+  cell_draw.vol = toTensor(q.weights, dtype);
+  cell_draw.body = toTensor(body_forces, dtype);
+  cell_draw.lift[0] = toTensor(lift.g, dtype);
+  cell_draw.lift[1] = toTensor(lift.grad_g, dtype);
+  cell_draw.lift[2] = toTensor(lift.D, dtype);
+  cell_draw.lift[3] = toTensor(lift.grad_D, dtype);
+  if (config.verbose)
+    std::cerr << "dem: MLP quadrature " << q.points.size() << " Gauss points in cells of " << cells.cell() << " m\n";
+  return cell_draw;
+}
+
+}  // namespace demnerf::mechanics
