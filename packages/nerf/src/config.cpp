@@ -68,6 +68,8 @@ std::vector<Entry> entries(NerfConfig& c) {
       {"train", "min_rays", &c.train.min_rays},
       {"train", "max_rays", &c.train.max_rays},
       {"train", "gradient_min_transmittance", &c.train.gradient_min_transmittance},
+      {"train", "density_prior", &c.train.density_prior},
+      {"train", "density_prior_per_ray", &c.train.density_prior_per_ray},
       {"train", "loss", &c.train.loss},
       {"train", "huber_delta", &c.train.huber_delta},
       {"train", "random_background", &c.train.random_background},
@@ -121,6 +123,9 @@ void NerfConfig::validate() const {
   check(train.min_rays >= 1 && train.max_rays >= train.min_rays, "train.min_rays must be >= 1 and <= train.max_rays");
   check(train.gradient_min_transmittance >= 0 && train.gradient_min_transmittance < 1,
         "train.gradient_min_transmittance must be in [0, 1)");
+  check(train.density_prior >= 0 && std::isfinite(train.density_prior), "train.density_prior must be >= 0");
+  check(train.density_prior_per_ray >= 1 && train.density_prior_per_ray <= 4,
+        "train.density_prior_per_ray must be in [1, 4], got " + std::to_string(train.density_prior_per_ray));
   check(train.loss == "l2" || train.loss == "huber", "train.loss must be 'l2' or 'huber', got '" + train.loss + "'");
   check(train.threads >= 0, "train.threads must be >= 0");
   for (double b : background) check(b >= 0 && b <= 1, "background components must be in [0, 1]");

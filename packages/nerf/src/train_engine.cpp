@@ -5,10 +5,11 @@
 #include <chrono>
 #include <cmath>
 #include <memory>
+#include <random>
 
 #include "demnerf/nerf/compositing.hpp"
 #include "demnerf/nerf/ray_batch.hpp"
-#include "march_round.hpp"
+#include "train_worker.hpp"
 
 // One training step in four parts per block of rays: march (rounds of samples), forward (the
 // field on each round, activations kept), composite + loss (per ray), backward (per-sample
@@ -20,61 +21,11 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
-// Rays per block: its first round still fills two pieces, and a batch of 512 rays makes 8
-// blocks, enough for the workers to take them dynamically and finish together.
-constexpr int kTrainBlock = 64;
-
-/// Up to kChunk samples of one round, with the activations the backward pass needs, so the
-/// backward needs no second forward.
-struct Piece {
-  FieldWorkspace ws;
-  int count = 0;
-  float unit[3 * NgpField::kChunk], dirs[3 * NgpField::kChunk];
-  float dt[NgpField::kChunk], sigma[NgpField::kChunk], rgb[3 * NgpField::kChunk];
-  float t_before[NgpField::kChunk], c_upto[3 * NgpField::kChunk];
-  int ray[NgpField::kChunk];  ///< block ray; -1 when the ray was opaque before this sample
-  int kept = 0;               ///< samples the backward takes (moved to rows 0..kept)
-  float g_sigma[NgpField::kChunk], g_rgb[3 * NgpField::kChunk];  ///< theirs, in that order
-};
-
-/// What one block of rays leaves for the reductions after the parallel pass. Workers take
-/// blocks in whatever order they come free; the reductions run in block order, so the step's
-/// result does not depend on which worker took which block, nor on the thread count.
-struct BlockResult {
-  int worker = 0;
-  std::int64_t enc_first = 0, enc_count = 0;  ///< its samples in the worker's enc buffers
-  MlpGradients grads;
-  double loss = 0, sq_error = 0;
-};
-
-/// Everything one worker thread keeps between the passes and across steps.
-struct Worker {
-  detail::Round round;
-  std::vector<std::unique_ptr<Piece>> pieces;  ///< pool, reused across blocks and steps
-  std::size_t used = 0;                        ///< pieces holding this block's samples
-  // Inputs of the table backward: positions and d(loss)/d(encoding) of every sample, the
-  // gradient level-major within each block (level l of a block of S samples: S x features
-  // floats at l * S * features), so each level's scatter streams its inputs.
-  std::vector<float> enc_pos, enc_grad, piece_grad;
-  std::int64_t enc_count = 0;
-  double loss = 0, sq_error = 0;
-  double march_seconds = 0, encode_seconds = 0;  // for the time breakdown
-  std::int64_t samples = 0, marched = 0;
-  std::vector<RayCursor> cursors = std::vector<RayCursor>(kTrainBlock);
-  std::vector<RayAccum> acc = std::vector<RayAccum>(kTrainBlock);
-  float grad_color[kTrainBlock][3], total_color[kTrainBlock][3];
-  int keep[NgpField::kChunk];
-
-  Piece& nextPiece() {
-    while (pieces.size() <= used) pieces.push_back(std::make_unique<Piece>());
-    return *pieces[used++];
-  }
-  void reset() {
-    loss = sq_error = 0;
-    samples = marched = enc_count = 0;
-    march_seconds = encode_seconds = 0;
-  }
-};
+using detail::BlockResult;
+using detail::kPriorPoint;
+using detail::kTrainBlock;
+using detail::Piece;
+using detail::Worker;
 
 /// Forward: the field on one round's samples, in pieces that keep their activations.
 void forwardRound(const NgpField& field, Worker& st, int total) {
@@ -111,6 +62,21 @@ void compositeRound(Worker& st, int rays, std::size_t first_piece, float min_t) 
 }
 
 /// March + forward + composite of one block, round after round, until every ray is done.
+/// The block's density-prior points (train.density_prior) as one more piece, after its rays'.
+void priorPiece(const NerfModel& model, Worker& st, int rays, std::uint64_t seed) {
+  const int per_ray = model.config().train.density_prior > 0 ? model.config().train.density_prior_per_ray : 0;
+  if (per_ray == 0) return;
+  std::mt19937_64 rng(seed);
+  float world[3 * NgpField::kChunk];
+  Piece& pc = st.nextPiece();
+  pc.count = detail::drawPriorPoints(model, st.cursors.data(), st.acc.data(), rays, per_ray,
+                                     model.march().min_transmittance, rng, world, pc.dirs);
+  if (pc.count == 0) return;
+  model.ngp().toUnit(world, pc.count, pc.unit);
+  model.ngp().forwardChunk(pc.unit, pc.dirs, pc.count, pc.ws, pc.sigma, pc.rgb);
+  std::fill_n(pc.ray, pc.count, kPriorPoint);
+}
+
 void marchBlock(const NerfModel& model, const TrainRays& batch, Worker& st, std::int64_t first, int rays) {
   const float min_t = model.march().min_transmittance;
   for (int j = 0; j < rays; ++j) {
@@ -163,10 +129,16 @@ void blockLoss(const TrainConfig& train, const TrainRays& batch, Worker& st, std
 /// had min_t of the light (the others' gradients are at most that fraction of their ray's;
 /// those behind an opaque point have none), and their activations moved to the first rows so
 /// the MLP backward and the table scatter skip the rest.
-void selectAndCompact(const NgpField& field, Worker& st, Piece& pc, float min_t) {
+void selectAndCompact(const NgpField& field, Worker& st, Piece& pc, float min_t, float prior_grad) {
   int kept = 0;
   for (int i = 0; i < pc.count; ++i) {
     const int j = pc.ray[i];
+    if (j == kPriorPoint) {  // d(prior)/d(sigma) is the same constant at every point
+      std::fill_n(pc.g_rgb + 3 * kept, 3, 0.0f);
+      pc.g_sigma[kept] = prior_grad;
+      st.keep[kept++] = i;
+      continue;
+    }
     if (j < 0 || pc.t_before[i] < min_t) continue;
     const float alpha = 1.0f - std::exp(-pc.sigma[i] * pc.dt[i]);
     const float w = pc.t_before[i] * alpha;
@@ -194,12 +166,12 @@ void selectAndCompact(const NgpField& field, Worker& st, Piece& pc, float min_t)
 
 /// Backward of one block: per-sample gradients from the ray totals, the fused MLP backward,
 /// and the samples' encoding gradients queued for the table scatter.
-void backwardBlock(const NgpField& field, Worker& st, BlockResult& block, float min_t) {
+void backwardBlock(const NgpField& field, Worker& st, BlockResult& block, float min_t, float prior_grad) {
   const HashGridLayout& layout = field.hashLayout();
   const int enc_dims = layout.outputDims(), features = layout.features;
   std::int64_t block_samples = 0;
   for (std::size_t p = 0; p < st.used; ++p) {
-    selectAndCompact(field, st, *st.pieces[p], min_t);
+    selectAndCompact(field, st, *st.pieces[p], min_t, prior_grad);
     block_samples += st.pieces[p]->kept;
   }
   const std::size_t need = static_cast<std::size_t>(st.enc_count + block_samples);
@@ -295,6 +267,13 @@ void TrainEngine::runPasses(const TrainRays& batch) {
   // Blocks go to whichever worker is free (rays differ in samples, so equal slices of rays
   // left one thread waiting for the other).
   std::atomic<std::int64_t> next{0};
+  // The density prior, density_prior * sum(sigma * min_step) over its points per ray of the
+  // batch; each block draws from a seed of the step and the block (the same on any thread count).
+  const TrainConfig& train = model_.config().train;
+  // Not during the occupancy grid's warm-up: rays then stop in the initial fog, and the points
+  // behind their stops are where the surfaces are still to grow.
+  const bool prior_on = train.density_prior > 0 && iteration_ >= model_.config().occupancy.warmup_steps;
+  const float prior_grad = static_cast<float>(train.density_prior * model_.march().min_step / std::max<std::int64_t>(1, n));
   at::parallel_for(0, workers, 1, [&](std::int64_t wbegin, std::int64_t wend) {
     for (std::int64_t w = wbegin; w < wend; ++w) {
       Worker& st = *threads_[w];
@@ -308,13 +287,14 @@ void TrainEngine::runPasses(const TrainRays& batch) {
         const int rays = static_cast<int>(std::min<std::int64_t>(kTrainBlock, n - first));
         const auto tp1 = Clock::now();
         marchBlock(model_, batch, st, first, rays);
+        if (prior_on) priorPiece(model_, st, rays, train.seed ^ (0x9e3779b97f4a7c15ull * (iteration_ * 4099 + b + 1)));
         st.loss = st.sq_error = 0;
-        blockLoss(model_.config().train, batch, st, first, rays);
+        blockLoss(train, batch, st, first, rays);
         block.loss = st.loss;
         block.sq_error = st.sq_error;
         const auto tp2 = Clock::now();
         p1 += std::chrono::duration<double>(tp2 - tp1).count();
-        backwardBlock(field, st, block, static_cast<float>(model_.config().train.gradient_min_transmittance));
+        backwardBlock(field, st, block, static_cast<float>(train.gradient_min_transmittance), prior_grad);
         p2 += since(tp2);
       }
       if (w == 0) {
