@@ -18,8 +18,8 @@ int drawPriorPoints(const NerfModel& model, const RayCursor* cursors, const RayA
       if (t >= c.t_end) continue;
       float* p = world + 3 * drawn;
       for (int a = 0; a < 3; ++a) p[a] = c.origin[a] + t * c.direction[a];
-      const std::int64_t cell = grid.cellOf(p);
-      if (cell < 0 || !grid.occupied(cell)) continue;
+      const std::int64_t index = grid.cellOf(p);
+      if (index < 0 || !grid.occupied(index)) continue;
       for (int a = 0; a < 3; ++a) dirs[3 * drawn + a] = c.direction[a];
       ++drawn;
     }

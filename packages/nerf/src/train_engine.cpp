@@ -61,7 +61,6 @@ void compositeRound(Worker& st, int rays, std::size_t first_piece, float min_t) 
   }
 }
 
-/// March + forward + composite of one block, round after round, until every ray is done.
 /// The block's density-prior points (train.density_prior) as one more piece, after its rays'.
 void priorPiece(const NerfModel& model, Worker& st, int rays, std::uint64_t seed) {
   const int per_ray = model.config().train.density_prior > 0 ? model.config().train.density_prior_per_ray : 0;
@@ -77,6 +76,7 @@ void priorPiece(const NerfModel& model, Worker& st, int rays, std::uint64_t seed
   std::fill_n(pc.ray, pc.count, kPriorPoint);
 }
 
+/// March + forward + composite of one block, round after round, until every ray is done.
 void marchBlock(const NerfModel& model, const TrainRays& batch, Worker& st, std::int64_t first, int rays) {
   const float min_t = model.march().min_transmittance;
   for (int j = 0; j < rays; ++j) {
