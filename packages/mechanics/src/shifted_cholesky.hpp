@@ -57,6 +57,7 @@ class ShiftedCholesky {
   bool dense() const { return dense_; }
 
   Eigen::VectorXd solve(const Eigen::SparseMatrix<double>& H, const Eigen::VectorXd& b, double initial_shift) {
+    singular_ = false;
     if (factorised_) {
       Eigen::VectorXd x;
       if (preconditionedCg(H, b, x)) return x;
@@ -86,7 +87,6 @@ class ShiftedCholesky {
     // search by decades from 0 (a 30 % compression's first step took 7 factorisations, 48 s).
     // Ritz values lie above the eigenvalues, so a failed attempt doubles the shift; one Lanczos
     // missed altogether (it said positive) starts from kMissedShift.
-    singular_ = false;
     const double lowest = lowestEigenvalueEstimate(scaled);
     double shift = lowest > 0 ? 0.0 : std::max(initial_shift, -2.0 * lowest);
     for (int attempt = 0; attempt < 24; ++attempt) {
