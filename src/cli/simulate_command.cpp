@@ -140,7 +140,8 @@ const char* usage() {
          "  --grid-body-cells N    default "
       << number(d.dem.grid.body_cells)
       << ": cell = (V / N)^(1/3) from the body's volume (never finer than the particles,\n"
-         "                         nor than six cells across the mean thickness 4V/A: grid.thickness_cells)\n"
+         "                         nor than six cells across the mean thickness 4V/A: grid.thickness_cells,\n"
+         "                         nor than sqrt(A / 2000) for a ragged surface of area A: grid.surface_cells)\n"
          "  --grid-spacings S      default "
       << number(d.dem.grid.spacings)
       << " (off): cell in particle spacings instead (below 1.5 is refused with the particle\n"

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
+#include <exception>
 
 #include "demnerf/core/error.hpp"
 #include "demnerf/mechanics/particle_inside_test.hpp"
@@ -159,12 +161,27 @@ CellQuadrature integrateCells(const ParticleInsideTest& inside, const BsplineGri
   // split between the cores, each chunk's points appended in cell order.
   const int threads = assemblyThreads(config.threads);
   std::vector<CellQuadrature> parts(threads);
+  // Chunk 0 runs on the calling thread and reports its share done for all (the chunks are equal);
+  // when the report throws, every chunk stops at its next cell and the error is rethrown here.
+  std::atomic<bool> stop{false};
+  std::exception_ptr failure;
   parallelChunks(static_cast<long>(cells.prod()), threads, [&](int chunk, long begin, long end) {
-    for (long c = begin; c < end; ++c) {
+    const long every = std::max(1L, (end - begin) / 100);
+    for (long c = begin; c < end && !stop.load(std::memory_order_relaxed); ++c) {
+      if (chunk == 0 && config.progress && (c - begin) % every == 0) {
+        try {
+          config.progress(static_cast<double>(c - begin) / static_cast<double>(end - begin));
+        } catch (...) {
+          failure = std::current_exception();
+          stop = true;
+          return;
+        }
+      }
       const Eigen::Vector3d index(c % cells(0), (c / cells(0)) % cells(1), c / (cells(0) * cells(1)));
       integrator.add(grid.origin() + grid.cell() * index, grid.cell(), 0, parts[chunk]);
     }
   });
+  if (failure) std::rethrow_exception(failure);
   CellQuadrature out;
   for (const CellQuadrature& part : parts) {
     out.points.insert(out.points.end(), part.points.begin(), part.points.end());

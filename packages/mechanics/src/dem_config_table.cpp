@@ -68,6 +68,8 @@ std::vector<Field> gridFields(DemGridConfig& c) {
              "cells the body's volume holds, sizing the grid (0 with cell and spacings 0: MLP alone)"),
       number(s, "thickness_cells", c.thickness_cells, 0, false, kInf,
              "with body_cells: cells no finer than the mean thickness 4V/A over this many (0: off)"),
+      number(s, "surface_cells", c.surface_cells, 0, false, kInf,
+             "with body_cells: cells no finer than sqrt(A / this), about this many cells meet the surface (0: off)"),
       integer(s, "degree", c.degree, 1, 3, "B-spline degree of the feature grid"),
       choice<Q>(s, "quadrature", c.quadrature, {{"cells", Q::kCells}, {"particles", Q::kParticles}},
                 "grid Newton quadrature: Gauss points in the cells inside the body, or the particles"),

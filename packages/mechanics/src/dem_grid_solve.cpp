@@ -30,6 +30,9 @@ void DemSolver::Impl::buildGridQuadrature() {
       cq.points_per_axis = config.grid.gauss_points;
       cq.boundary_levels = config.grid.boundary_levels;
       cq.threads = config.threads;
+      std::ostringstream what;
+      what << "cell quadrature of the feature grid (cells of " << grid->cell() << " m)";
+      cq.progress = [this, text = what.str()](double done) { setupTick(text, done); };
       CellQuadrature q = cellQuadrature(cloud, *grid, cq);
       gq_points = std::move(q.points);
       gq_volume = std::move(q.weights);
@@ -135,7 +138,7 @@ bool DemSolver::Impl::solveGrid(double scale, int& iterations) {
   if (config.verbose)
     std::cerr << "dem: grid Newton " << outcome.iterations << " its, energy " << outcome.energy << ", min J "
               << outcome.min_J << ", residual " << outcome.residual << (outcome.converged ? "" : " (not converged)")
-              << "; assembly "
+              << ", " << outcome.held << " weak unknowns held; assembly "
               << outcome.assembly_seconds << " s, factorisation " << outcome.factorisation_seconds
               << " s, line search " << outcome.line_search_seconds << " s\n";
   return outcome.converged;

@@ -86,7 +86,7 @@ DemSessionAnswer DemSession::answer(const core::Scenario& scenario, const SolveC
         solver_->setScenario(scenario);
       } else {
         answer.mode = "cold";
-        solver_ = std::make_unique<DemSolver>(*cloud_, scenario, config_);
+        solver_ = std::make_unique<DemSolver>(*cloud_, scenario, config_, control);  // set-up within the budget
       }
       solver_->setControl(control);
       const DemReport report = solver_->solve();

@@ -12,7 +12,9 @@
 #include <Eigen/Core>
 #include <chrono>
 #include <functional>
+#include <limits>
 #include <memory>
+#include <optional>
 #include <random>
 #include <string>
 #include <utility>
@@ -60,6 +62,8 @@ struct DemSolver::Impl {
   // of the last good state and the last grid Newton's outcome (energy and residual of the answer).
   SolveControl control;
   std::unique_ptr<SolveClock> clock;
+  // Set by the constructor given a control: the next solve()'s budget counts from here (set-up included).
+  std::optional<std::chrono::steady_clock::time_point> setup_start;
   double done_fraction = 0.0;
   GridNewtonOutcome last_grid;
 
@@ -171,6 +175,9 @@ struct DemSolver::Impl {
   // dem_training.cpp
   std::string keptState() const;
   void tick(const char* phase, double scale, int iterations, double energy, double residual);
+  /// The set-up's progress ("setup: <what>", `done` its share, NaN: unknown) and the stop checks,
+  /// while the constructor runs under a control (a no-op otherwise).
+  void setupTick(const std::string& what, double done = std::numeric_limits<double>::quiet_NaN());
   void reportProgress(int iterations) const;
   bool newtonEnabled() const;
   void solveOutputLayer(double scale);

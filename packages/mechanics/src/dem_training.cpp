@@ -35,6 +35,18 @@ void DemSolver::Impl::tick(const char* phase, double scale, int iterations, doub
   clock->check(keptState());
 }
 
+void DemSolver::Impl::setupTick(const std::string& what, double done) {
+  if (!clock) return;
+  SolveProgress p;
+  std::ostringstream phase;
+  phase << "setup: " << what;
+  if (std::isfinite(done)) phase << ' ' << std::lround(100 * done) << " %";
+  p.phase = phase.str();
+  p.residual = std::numeric_limits<double>::quiet_NaN();
+  clock->report(p);
+  clock->check("nothing: the set-up (" + what + ") took the budget");
+}
+
 void DemSolver::Impl::reportProgress(int iterations) const {
   if (progress && progress_every > 0 && iterations % progress_every == 0) progress(iterations);
 }

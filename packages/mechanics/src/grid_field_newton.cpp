@@ -132,17 +132,64 @@ bool lineSearch(const GridFieldEnergy& energy, const Unknowns& unknowns, const E
   return false;
 }
 
+// The unknowns whose stiffness (Hessian diagonal) at the start is below `ratio` of the mean: grid
+// functions the body barely sees, e.g. those the distance factor D of a fixture all but cancels at
+// every point they reach. On the fox's ragged NeRF body they made the Hessian singular at rest
+// (covers 1e-4 .. 1e-8 of a cell): Lanczos saw no negative curvature, every factorisation needed
+// the fallback shift of 1e-3, and that shift stalled the body's soft bending modes (residual
+// 2e-3 after 21 iterations of a 300 s budget; docs/dem_feature_grid.md, "Ragged bodies").
+std::vector<char> weakUnknowns(const Eigen::SparseMatrix<double>& hessian, double ratio, long& count) {
+  const Eigen::VectorXd diagonal = hessian.diagonal().cwiseAbs();
+  std::vector<char> weak(diagonal.size(), 0);
+  count = 0;
+  if (!(ratio > 0) || diagonal.size() == 0) return weak;
+  const double floor = ratio * diagonal.mean();
+  for (Eigen::Index k = 0; k < diagonal.size(); ++k) count += weak[k] = diagonal(k) < floor;
+  return weak;
+}
+
+// Holds the weak unknowns where they are: no gradient, no coupling and the mean diagonal as pivot,
+// so the factorisation needs no shift for them and the residual is the other unknowns'. Only for a
+// Hessian found singular: holding them always stiffened a clamped cantilever by 2.7 % in energy and
+// put the T-bar 5.8 % off (the weak unknowns beside a clamp carry its field), and damping them alone
+// instead stalled their own convergence on clean bodies.
+void holdWeak(const std::vector<char>& weak, Eigen::VectorXd& gradient, Eigen::SparseMatrix<double>* hessian) {
+  if (weak.empty()) return;
+  for (Eigen::Index k = 0; k < gradient.size(); ++k)
+    if (weak[k]) gradient(k) = 0.0;
+  if (!hessian || hessian->nonZeros() == 0) return;
+  const double mean = std::max(hessian->diagonal().cwiseAbs().mean(), std::numeric_limits<double>::min());
+  for (int col = 0; col < hessian->outerSize(); ++col)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(*hessian, col); it; ++it)
+      if (weak[it.row()] || weak[it.col()]) it.valueRef() = it.row() == it.col() ? mean : 0.0;
+}
+
+// The Newton step; when the first factorisation finds the Hessian singular, its weak unknowns are
+// held from then on (`weak`, `held`) and the step is taken again without them.
+Eigen::VectorXd newtonStep(ShiftedCholesky& solver, Eigen::SparseMatrix<double>& hessian, Eigen::VectorXd& gradient,
+                           const GridNewtonConfig& config, bool first, std::vector<char>& weak, long& held) {
+  Eigen::VectorXd step = solver.solve(hessian, -gradient, config.initial_shift);
+  if (!first || !solver.singular() || !(config.weak_stiffness > 0)) return step;
+  weak = weakUnknowns(hessian, config.weak_stiffness, held);
+  if (held == 0) return step;
+  holdWeak(weak, gradient, &hessian);
+  return solver.solve(hessian, -gradient, config.initial_shift);
+}
+
 // The gradient at the iterate (in the unknowns) and the Hessian there. In Newton's quadratic phase
 // the residual is mostly converged already: the gradient alone (a fraction of an assembly) is
 // computed first, and the Hessian skipped when its norm is within `converged` (Newton stops there).
 void assembleAt(const GridFieldEnergy& energy, const Unknowns& unknowns, const Iterate& x, bool quadratic,
-                double converged, Eigen::VectorXd& gradient, Eigen::SparseMatrix<double>& hessian) {
+                double converged, const std::vector<char>& weak, Eigen::VectorXd& gradient,
+                Eigen::SparseMatrix<double>& hessian) {
   if (quadratic) {
     gradient = unknowns.projectGradient(energy.gradient(x.c));
+    holdWeak(weak, gradient, nullptr);
     if (gradient.norm() <= converged) return;
   }
   energy.derivatives(x.c, gradient, hessian);
   gradient = unknowns.projectGradient(gradient);
+  holdWeak(weak, gradient, &hessian);
 }
 
 }  // namespace
@@ -173,13 +220,14 @@ GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const Hyper
   int rounding_steps = 0;
   Eigen::VectorXd gradient;
   Eigen::SparseMatrix<double> hessian;
+  std::vector<char> weak;  // held unknowns (newtonStep), for the whole call
   // The last step was a full one from a residual this small: Newton's quadratic phase, where the
   // next residual is about its square (T-bar twist: 1.3e-6 -> 1.9e-12, 1.9e-2 -> 1.3e-6).
   constexpr double kQuadraticPhase = 1e-3;
   bool quadratic = false;
   for (int it = 0;; ++it) {
     auto start = std::chrono::steady_clock::now();
-    assembleAt(energy, unknowns, x, quadratic, config.residual_tolerance * load, gradient, hessian);
+    assembleAt(energy, unknowns, x, quadratic, config.residual_tolerance * load, weak, gradient, hessian);
     out.assembly_seconds += secondsSince(start);
     if (it == 0) load = std::max(load, gradient.norm());
     out.residual = load > 0 ? gradient.norm() / load : 0.0;
@@ -197,7 +245,7 @@ GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const Hyper
     }
     if (it >= config.max_iterations) break;
     start = std::chrono::steady_clock::now();
-    const Eigen::VectorXd step = solver.solve(hessian, -gradient, config.initial_shift);
+    const Eigen::VectorXd step = newtonStep(solver, hessian, gradient, config, it == 0, weak, out.held);
     out.factorisation_seconds += secondsSince(start);
     const double decrement = -gradient.dot(step);
     if (!(decrement > 0) || !std::isfinite(decrement)) break;

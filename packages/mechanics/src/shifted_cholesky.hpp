@@ -51,9 +51,13 @@ class ShiftedCholesky {
   /// are dense (a compact body's nearly full factor): for the grid Newton's verbose report.
   double lastShift() const { return last_shift_; }
   int factorisations() const { return factorisations_; }
+  /// The last solve() found H singular: it needed a shift, yet Lanczos saw no negative curvature
+  /// beyond kMissedShift (grid functions the body barely sees; grid_field_newton.cpp holds them).
+  bool singular() const { return singular_; }
   bool dense() const { return dense_; }
 
   Eigen::VectorXd solve(const Eigen::SparseMatrix<double>& H, const Eigen::VectorXd& b, double initial_shift) {
+    singular_ = false;
     if (factorised_) {
       Eigen::VectorXd x;
       if (preconditionedCg(H, b, x)) return x;
@@ -91,6 +95,9 @@ class ShiftedCholesky {
       factorised_ = factorise(shifted);
       ++factorisations_;
       if (factorised_) {
+        // A shift was needed, yet the curvature Lanczos found is no more negative than the shift
+        // kept for a missed estimate: a singular (not an indefinite) H.
+        singular_ = shift > 0 && lowest > -kMissedShift;
         last_shift_ = shift;
         return factorSolve(b);
       }
@@ -230,6 +237,7 @@ class ShiftedCholesky {
   double last_shift_ = 0.0;  // relative to each column's diagonal
   int factorisations_ = 0;
   bool unshifted_first_ = false;
+  bool singular_ = false;
 };
 
 }  // namespace demnerf::mechanics

@@ -16,7 +16,10 @@ const char* solveFailureName(SolveFailure failure) {
 }
 
 SolveClock::SolveClock(const SolveControl& control, std::string solver)
-    : control_(control), solver_(std::move(solver)), start_(std::chrono::steady_clock::now()), last_report_(start_) {}
+    : SolveClock(control, std::move(solver), std::chrono::steady_clock::now()) {}
+
+SolveClock::SolveClock(const SolveControl& control, std::string solver, std::chrono::steady_clock::time_point start)
+    : control_(control), solver_(std::move(solver)), start_(start), last_report_(start) {}
 
 double SolveClock::elapsed() const {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();

@@ -11,6 +11,7 @@
 // +7 J "converged", 11 % off). Gauss points in the cells see the whole body alike.
 
 #include <Eigen/Core>
+#include <functional>
 #include <vector>
 
 #include "demnerf/core/ply.hpp"
@@ -26,6 +27,9 @@ struct CellQuadratureConfig {
   int boundary_levels = 2;
   /// Threads that run the cells (0: every core); the points come out in the same order on any count.
   int threads = 0;
+  /// Called on the calling thread with the share of the cells done (about every 1 %); it may throw
+  /// (a time limit, a cancel): the other threads then stop at their next cell and it is rethrown.
+  std::function<void(double done)> progress;
 };
 
 struct CellQuadrature {

@@ -89,6 +89,10 @@ struct DemGridConfig {
   /// With body_cells: the cell is no finer than the body's mean thickness 4 V / A (a square bar's
   /// side) over this many, so compact bodies keep coarser cells than slender ones (6; 0: off)
   double thickness_cells = 6.0;
+  /// With body_cells: the cell is no finer than sqrt(A / surface_cells), so about this many cells
+  /// meet the surface: a ragged one (a NeRF's sponge-like extraction) would otherwise make most
+  /// cells cut cells, the costliest to set up and the weakest to solve (2000; 0: off)
+  double surface_cells = 2000.0;
   int degree = 2;                 ///< 1 trilinear, 2 C1 quadratic, 3 C2 cubic (2)
   DemGridQuadrature quadrature = DemGridQuadrature::kCells;  ///< Gauss points in cells, or the particles (kCells)
   int gauss_points = 2;           ///< Gauss points per axis and cell, kCells (2)
@@ -202,8 +206,14 @@ struct DemState {
 
 class DemSolver {
  public:
-  /// Validates scenario and particles (core::Error before any training) and builds the network.
+  /// Validates scenario and particles (core::Error before any training) and builds the network
+  /// and the feature grid's quadrature.
   DemSolver(core::ParticleCloud cloud, const core::Scenario& scenario, DemConfig config = {});
+  /// The same under a solve's control: the set-up (the cell quadrature alone takes tens of seconds
+  /// on a ragged body) reports progress (phases "setup ...") and counts against the time limit
+  /// (SolveError{kTimeLimit} from here), and the first solve()'s budget starts at construction, so
+  /// the limit holds in wall time from this call on.
+  DemSolver(core::ParticleCloud cloud, const core::Scenario& scenario, DemConfig config, const SolveControl& control);
   ~DemSolver();
   DemSolver(DemSolver&&) noexcept;
 
@@ -241,6 +251,7 @@ class DemSolver {
   static DemSolver fromState(const DemState& state);
 
  private:
+  DemSolver(core::ParticleCloud cloud, const core::Scenario& scenario, DemConfig config, const SolveControl* control);
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

@@ -66,6 +66,12 @@ struct GridNewtonConfig {
   /// at least this share by the quadrature are extrapolated from a nearby filled cell instead of
   /// being unknowns (0: every node the quadrature sees is an unknown).
   double extension_fill = 0.0;
+  /// When the first factorisation finds the Hessian singular (no negative curvature, yet not
+  /// positive definite), the unknowns whose diagonal is below this share of the mean are held
+  /// where they are (no step, not in the residual) for the rest of the call: grid functions the
+  /// body barely sees, and the shift of every column that would cover them stalls the body's soft
+  /// modes (a ragged NeRF body; docs/dem_feature_grid.md, "Ragged bodies"). 0: never held.
+  double weak_stiffness = 1e-3;
   /// The Newton starts near its minimum (the nested solve's fine grid, started from a coarse
   /// grid's answer): a new factorisation is tried without a shift before Lanczos looks for one.
   bool near_minimum = false;
@@ -85,6 +91,7 @@ struct GridNewtonOutcome {
   int iterations = 0;
   double residual = 0.0;  ///< |dPi/dC| / load at the returned coefficients (see residual_tolerance)
   bool converged = false;
+  long held = 0;          ///< weak unknowns held (GridNewtonConfig::weak_stiffness)
   double assembly_seconds = 0.0, factorisation_seconds = 0.0, line_search_seconds = 0.0;
 };
 

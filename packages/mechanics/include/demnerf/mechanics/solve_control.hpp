@@ -61,6 +61,8 @@ class SolveError : public core::Error {
 class SolveClock {
  public:
   SolveClock(const SolveControl& control, std::string solver);
+  /// A clock whose budget started at `start` (a solver's construction: its set-up counts).
+  SolveClock(const SolveControl& control, std::string solver, std::chrono::steady_clock::time_point start);
   double elapsed() const;
   /// Forwards to control.progress when progress_interval has passed since the last report (or
   /// `force`); fills solver and elapsed.
