@@ -74,6 +74,10 @@ Figures runSimulate(const Arguments& arguments) {
   try {
     outcome = mechanics::simulate(cloud, scenario, solver, options);
     if (!outcome.unverified.empty()) std::cerr << "demnerf simulate: warning: not verified: " << outcome.unverified << "\n";
+    if (outcome.held_unknowns > 0)
+      std::cerr << "demnerf simulate: note: " << outcome.held_unknowns << " grid unknowns the body barely touches were held "
+                << "(a singular Hessian: a ragged or sliver surface); the equilibrium is the body's with them held, and "
+                << "their own residual is " << outcome.held_residual << " of the load\n";
   } catch (const mechanics::SolveError& error) {
     // One line that names the cause (exit 1): scripts can tell a time limit from a divergence.
     std::string message = error.what();
@@ -97,7 +101,12 @@ Figures runSimulate(const Arguments& arguments) {
                   {"solver", solver_name},
                   {"out", out_path}};
   if (!vtu_path.empty()) figures["vtu"] = vtu_path;
-  if (solver == mechanics::SolverChoice::kDem) figures["method"] = arguments.text("method", "grid");
+  if (solver == mechanics::SolverChoice::kDem) {
+    figures["method"] = arguments.text("method", "grid");
+    if (std::isfinite(outcome.residual)) figures["residual"] = outcome.residual;
+    figures["held_unknowns"] = outcome.held_unknowns;
+    if (outcome.held_unknowns > 0) figures["held_residual"] = outcome.held_residual;
+  }
   if (solver == mechanics::SolverChoice::kPinn) figures["loss"] = outcome.loss;
   if (solver == mechanics::SolverChoice::kFem) {
     figures["mesh_nodes"] = outcome.mesh_nodes;

@@ -292,6 +292,8 @@ DemReport DemSolver::solve() {
     // The answer is the grid Newton's: its energy and residual on its own quadrature.
     energy = m.last_grid.energy;
     report.residual = m.last_grid.residual;
+    report.held_unknowns = m.last_grid.held;
+    report.held_residual = m.last_grid.held_residual;
     report.min_J = m.last_grid.min_J;
     if (m.config.verbose) m.mlpEquilibrium(1.0);  // the MLP's check on this answer, for comparison only
   }

@@ -94,6 +94,9 @@ void solveDem(const core::ParticleCloud& cloud, const core::Scenario& scenario, 
   const DemReport report = dem.solve();
   out.energy = report.energy;
   out.unverified = report.unverified;
+  out.residual = report.residual;
+  out.held_unknowns = report.held_unknowns;
+  out.held_residual = report.held_residual;
   out.field = dem.result();
   if (!options.dem_model_path.empty()) saveDemModel(dem, options.dem_model_path);
 }

@@ -183,6 +183,11 @@ struct DemReport {
   /// coefficients; without a feature grid, the MLP's residual in the B-spline test basis of its
   /// equilibrium check (energy norm; dem_mlp_check.cpp, docs/dem_feature_grid.md).
   double residual = 0.0;
+  /// Grid unknowns the body barely sees, held where they were because the Hessian was singular
+  /// (GridNewtonConfig::weak_stiffness; 0 on a clean body), and their own relative residual, which
+  /// `residual` leaves out.
+  long held_unknowns = 0;
+  double held_residual = 0.0;
   /// Parametric mode only: why its answer at the trained load failed the MLP's equilibrium check
   /// (empty: it passed). Its answers are kept and used, and this says they are not verified.
   std::string unverified;

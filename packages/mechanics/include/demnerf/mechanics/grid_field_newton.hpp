@@ -92,6 +92,9 @@ struct GridNewtonOutcome {
   double residual = 0.0;  ///< |dPi/dC| / load at the returned coefficients (see residual_tolerance)
   bool converged = false;
   long held = 0;          ///< weak unknowns held (GridNewtonConfig::weak_stiffness)
+  /// |dPi/dC| / load over the held unknowns alone at the returned coefficients: what `residual`,
+  /// which leaves them out, does not see (0 when none is held)
+  double held_residual = 0.0;
   double assembly_seconds = 0.0, factorisation_seconds = 0.0, line_search_seconds = 0.0;
 };
 

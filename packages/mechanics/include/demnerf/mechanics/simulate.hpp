@@ -2,6 +2,7 @@
 // One entry point for every solver: a particle cloud and a scenario in, a result field (one row
 // per particle, in order) and the run's figures out. Backs `demnerf simulate` and the dem_node.
 
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -63,6 +64,9 @@ struct SimulationOutcome {
   int mesh_elements = 0;          ///< FEM only
   double mesh_cell = 0.0;         ///< FEM only: the cell (target edge) the mesh was made with (m)
   std::string unverified;         ///< parametric DEM only: why it failed its equilibrium check (DemReport)
+  double residual = std::numeric_limits<double>::quiet_NaN();  ///< DEM grid: DemReport::residual
+  long held_unknowns = 0;       ///< DEM grid: DemReport::held_unknowns
+  double held_residual = 0.0;   ///< DEM grid: DemReport::held_residual
   /// FEM with options.keep_fem_mesh only; shared so that copies of the outcome stay cheap.
   std::shared_ptr<const FemMeshSolution> fem_mesh;
 };
