@@ -149,36 +149,34 @@ void forwardChunk(const Network& net, const float* x, std::int64_t p0, int m, Wo
 template <bool Deriv>
 void backwardOutput(const Network& net, Workspace& ws) {
   const int w = net.width;
-  {
-    const Workspace::Layer& last = ws.layers[net.depth - 1];
-    const float* W = net.weights[net.depth];
-    std::vector<v16>& gW = ws.gw[net.depth];
-    for (int o = 0; o < 3; ++o)
-      for (int v = 0; v < kV; ++v) ws.gb[net.depth][o] += ws.gz[o * kV + v];
-    for (int o = 0; o < 3; ++o)
-      for (int i = 0; i < w; ++i) {
-        v16 acc = gW[o * w + i];
-        for (int v = 0; v < kV; ++v) {
-          acc += ws.gz[o * kV + v] * last.h[i * kV + v];
-          if (Deriv)
-            for (int k = 0; k < 3; ++k) acc += ws.gdz[(o * 3 + k) * kV + v] * last.dh[(i * 3 + k) * kV + v];
-        }
-        gW[o * w + i] = acc;
-      }
-    for (int i = 0; i < w; ++i)
+  const Workspace::Layer& last = ws.layers[net.depth - 1];
+  const float* W = net.weights[net.depth];
+  std::vector<v16>& gW = ws.gw[net.depth];
+  for (int o = 0; o < 3; ++o)
+    for (int v = 0; v < kV; ++v) ws.gb[net.depth][o] += ws.gz[o * kV + v];
+  for (int o = 0; o < 3; ++o)
+    for (int i = 0; i < w; ++i) {
+      v16 acc = gW[o * w + i];
       for (int v = 0; v < kV; ++v) {
-        v16 g{}, gd[3] = {v16{}, v16{}, v16{}};
-        for (int o = 0; o < 3; ++o) {
-          const float c = W[o * w + i];
-          g += c * ws.gz[o * kV + v];
-          if (Deriv)
-            for (int k = 0; k < 3; ++k) gd[k] += c * ws.gdz[(o * 3 + k) * kV + v];
-        }
-        ws.gh[i * kV + v] = g;
+        acc += ws.gz[o * kV + v] * last.h[i * kV + v];
         if (Deriv)
-          for (int k = 0; k < 3; ++k) ws.gdh[(i * 3 + k) * kV + v] = gd[k];
+          for (int k = 0; k < 3; ++k) acc += ws.gdz[(o * 3 + k) * kV + v] * last.dh[(i * 3 + k) * kV + v];
       }
-  }
+      gW[o * w + i] = acc;
+    }
+  for (int i = 0; i < w; ++i)
+    for (int v = 0; v < kV; ++v) {
+      v16 g{}, gd[3] = {v16{}, v16{}, v16{}};
+      for (int o = 0; o < 3; ++o) {
+        const float c = W[o * w + i];
+        g += c * ws.gz[o * kV + v];
+        if (Deriv)
+          for (int k = 0; k < 3; ++k) gd[k] += c * ws.gdz[(o * 3 + k) * kV + v];
+      }
+      ws.gh[i * kV + v] = g;
+      if (Deriv)
+        for (int k = 0; k < 3; ++k) ws.gdh[(i * 3 + k) * kV + v] = gd[k];
+    }
 }
 
 // Backward pass of the chunk from the adjoints gz, gdz of z and dz, into the accumulators.

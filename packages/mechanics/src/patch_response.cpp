@@ -68,7 +68,7 @@ core::ResultField PatchResponse::fullSolve(const core::Scenario& scenario, const
     if (solver_) {
       solver_->setScenario(scenario);
     } else {
-      solver_ = std::make_unique<DemSolver>(cloud_, scenario, dem_);
+      solver_ = std::make_unique<DemSolver>(cloud_, scenario, dem_, control);  // set-up within the budget
     }
     solver_->setControl(control);
     const DemReport report = solver_->solve();
