@@ -78,6 +78,9 @@ struct FemSolver::Impl {
   template <int N>
   double elementEnergy(const Eigen::VectorXd& x, int e) const;
   bool newton(double scale);
+  // Whether the full Newton step du lowers the free residual below `res` (the fallback when the
+  // energy is flat within round-off).
+  bool residualFalls(const Eigen::VectorXd& du, double scale, double res);
   const FemResult& solveAll();
   void keepState();  // u -> result.displacement
   // eta: relative accuracy asked of an iterative solve (inexact Newton forcing term).
