@@ -167,7 +167,7 @@ bool FemSolver::Impl::newton(double scale) {
     ++result.newton_iterations;
     t0 = std::chrono::steady_clock::now();
     LineSearch step = backtrack([&](double alpha) { return energy(u + alpha * du, scale); }, e0, R.dot(du),
-                                      at_target);
+                                at_target);
     result.line_search_seconds += secondsSince(t0);
     if (!step.accepted) {
       if (!step.any_finite) failure = Failure::kInverted;
