@@ -1,5 +1,6 @@
 #include "surface_flags.hpp"
 
+#include <cmath>
 #include <sstream>
 
 #include "command.hpp"
@@ -8,7 +9,7 @@
 namespace demnerf::cli {
 
 std::set<std::string> surfaceFlagNames() {
-  return {"resolution", "surface", "opacity", "threshold", "max-faces", "smooth", "box", "max-second-piece"};
+  return {"resolution", "surface", "opacity", "threshold", "max-faces", "smooth", "box", "max-second-piece", "solid-radius"};
 }
 
 dem_nerf::SurfaceConfig surfaceFlags(const Arguments& arguments) {
@@ -41,6 +42,9 @@ dem_nerf::SurfaceConfig surfaceFlags(const Arguments& arguments) {
   }
   config.isolation.max_second_piece_fraction =
       arguments.number("max-second-piece", config.isolation.max_second_piece_fraction);
+  config.mesh.solid_radius = arguments.number("solid-radius", config.mesh.solid_radius);
+  if (!(config.mesh.solid_radius >= 0.0) || !std::isfinite(config.mesh.solid_radius))
+    throw UsageError("option --solid-radius expects a length >= 0 in the scene's units (0: the level set as is)");
   return config;
 }
 
@@ -52,7 +56,9 @@ std::string surfaceFlagsUsage() {
        << " (density surface)] [--max-faces 0 (0: keep all)] [--smooth 0] "
        << "[--box xmin,ymin,zmin,xmax,ymax,zmax (the scene's frame: mesh only the object inside, its largest piece)] "
        << "[--max-second-piece " << defaults.isolation.max_second_piece_fraction
-       << " (refuse a box whose second piece has this fraction of the largest's size)]";
+       << " (refuse a box whose second piece has this fraction of the largest's size)] "
+       << "[--solid-radius " << defaults.mesh.solid_radius
+       << " (> 0: close tunnels narrower than about twice this, in the scene's units, and fill cavities)]";
   return text.str();
 }
 

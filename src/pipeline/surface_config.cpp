@@ -56,7 +56,8 @@ SurfaceConfig parseSurfaceConfig(const std::string& yaml_text, const std::string
                 {"max_faces", integerIn(&c.mesh.simplification.max_faces, 0, no_limit)},
                 {"smoothing", integerIn(&c.mesh.repair.smoothing_iterations, 0, 1000)},
                 {"box", boxOf(&c.box)},
-                {"max_second_piece", numberAtLeast(&c.isolation.max_second_piece_fraction, 0.0, true)}});
+                {"max_second_piece", numberAtLeast(&c.isolation.max_second_piece_fraction, 0.0, true)},
+                {"solid_radius", numberAtLeast(&c.mesh.solid_radius, 0.0)}});
   return c;
 }
 

@@ -1,0 +1,48 @@
+#pragma once
+// Making a NeRF's occupied region solid before its surface is taken. A NeRF only needs density
+// where rays stop, so a real capture's interior comes out as a sponge: the fox's head, cut at a
+// density level, is a closed surface with hundreds of handles (tunnels one to three cells wide)
+// and most particles sampled in it land on its surface. A morphological closing (dilate the
+// inside by a ball of radius r, then erode the result by the same ball) shuts every tunnel and
+// gap narrower than about 2r while leaving convex parts of the outline where they were, and a
+// flood of the empty nodes from the grid's border then fills whatever it sealed off inside.
+
+#include <cstddef>
+
+#include "demnerf/core/ply.hpp"
+#include "demnerf/geometry/density_grid.hpp"
+
+namespace demnerf::geometry {
+
+struct SolidReport {
+  double radius_cells = 0.0;       ///< the closing's radius in grid cells (the largest spacing's)
+  std::size_t closed_nodes = 0;    ///< outside nodes the closing made inside (tunnels, gaps, dents)
+  std::size_t cavity_nodes = 0;    ///< outside nodes no path of outside nodes joins to the border
+};
+
+/// The field with its inside ({value > level}) made solid: a closing by a Euclidean ball of
+/// `radius` (scene units; 0 skips it), then every outside node not 6-connected to the grid's
+/// border through outside nodes is filled. Nodes made inside get max(value, 2 level) (level + 1
+/// for level <= 0), which puts the new surface half-way between them and their outside
+/// neighbours; other nodes keep their values, so surfaces the closing leaves alone do not move.
+/// Beyond the grid counts as neither inside nor outside: a body the box cuts is not eroded from
+/// the cut, and the grid's outermost layer of nodes is never filled (the cut's cap stays put). Throws core::Error for a negative or non-finite radius.
+DensityGrid solidifyField(const DensityGrid& field, double level, double radius, SolidReport* report = nullptr);
+
+/// Squared Euclidean distance (scene units) from each node to the nearest node where `feature`
+/// is true, over the grid only; a huge value (> 1e29) where there is none. Exact (separable lower
+/// envelopes of parabolas, one pass per axis), O(nodes).
+std::vector<double> squaredDistanceTo(const DensityGrid& grid, const std::vector<char>& feature);
+
+/// What kind of closed surface a mesh is: V - E + F and the handles it implies.
+struct SurfaceTopology {
+  std::size_t components = 0;  ///< pieces connected through shared vertices
+  long long euler = 0;         ///< V - E + F over the vertices faces use
+  long long genus = 0;         ///< handles in total, components - euler / 2 (a closed surface's)
+};
+
+/// Counts the mesh's components, Euler characteristic and genus (a sphere: 1, 2, 0; a torus:
+/// 1, 0, 1). The genus is meaningful for closed meshes, which extraction gives.
+SurfaceTopology surfaceTopology(const core::TriangleMesh& mesh);
+
+}  // namespace demnerf::geometry
