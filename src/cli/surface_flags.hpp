@@ -14,7 +14,7 @@ namespace demnerf::cli {
 std::set<std::string> surfaceFlagNames();
 
 /// --resolution, --surface, --opacity, --threshold, --max-faces, --smooth, --box,
-/// --max-second-piece and --solid-radius over SurfaceConfig's defaults; UsageError naming the flag when one is bad.
+/// --max-second-piece, --solid-radius and --solid-behind over SurfaceConfig's defaults; UsageError naming the flag when one is bad.
 /// --threshold alone means a density surface (its meaning before opacity surfaces existed).
 dem_nerf::SurfaceConfig surfaceFlags(const Arguments& arguments);
 

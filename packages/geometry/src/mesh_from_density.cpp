@@ -59,7 +59,7 @@ MeshExtractionResult extractMesh(const DensityGrid& grid, const MeshExtractionCo
   DensityGrid field = surfaceField(grid, config, &result.iso_value);
   // The solid is taken on the field the surface is cut from, at its own level, so an opacity
   // surface's tunnels close the same way as a density surface's.
-  if (config.solid_radius != 0.0) field = solidifyField(field, result.iso_value, config.solid_radius, &result.solid);
+  if (config.solid.enabled()) field = solidifyField(field, result.iso_value, config.solid, &result.solid);
   const core::TriangleMesh raw = extractIsoSurface(field, result.iso_value);
   if (raw.faces.empty()) throw core::Error(noSurfaceMessage(field, config));
   result.mesh = repairMesh(raw, config.repair, &result.repair);

@@ -90,6 +90,50 @@ std::vector<char> closing(const DensityGrid& grid, const std::vector<char>& insi
   return closed;
 }
 
+// Nodes whose ray along `toward` (unit) meets `solid` before it leaves the grid. Each ray is
+// marched in half-cell steps, only over the stretch that crosses the solid's bounding box.
+std::vector<char> hiddenBehind(const DensityGrid& grid, const std::vector<char>& solid, const Eigen::Vector3d& toward) {
+  const Eigen::Vector3i& n = grid.dims;
+  Eigen::Vector3i low = n, high = Eigen::Vector3i::Constant(-1);
+  for (int k = 0; k < n.z(); ++k)
+    for (int j = 0; j < n.y(); ++j)
+      for (int i = 0; i < n.x(); ++i)
+        if (solid[grid.index(i, j, k)]) {
+          low = low.cwiseMin(Eigen::Vector3i(i, j, k));
+          high = high.cwiseMax(Eigen::Vector3i(i, j, k));
+        }
+  std::vector<char> hidden(solid.size(), 0);
+  if ((high.array() < 0).any()) return hidden;
+  const Eigen::Vector3d step = toward.cwiseQuotient(grid.spacing) * 0.5 * grid.spacing.minCoeff();  // in cells
+  const Eigen::Vector3d box_low = low.cast<double>() - Eigen::Vector3d::Constant(0.5);
+  const Eigen::Vector3d box_high = high.cast<double>() + Eigen::Vector3d::Constant(0.5);
+  for (int k = 0; k < n.z(); ++k) {
+    for (int j = 0; j < n.y(); ++j) {
+      for (int i = 0; i < n.x(); ++i) {
+        const std::size_t id = grid.index(i, j, k);
+        if (solid[id]) continue;
+        const Eigen::Vector3d start(i, j, k);
+        double t0 = 1.0, t1 = std::numeric_limits<double>::infinity();  // in steps, along the ray
+        for (int a = 0; a < 3; ++a) {
+          if (step[a] == 0.0) {
+            if (start[a] < box_low[a] || start[a] > box_high[a]) t1 = -1.0;
+            continue;
+          }
+          const double ta = (box_low[a] - start[a]) / step[a], tb = (box_high[a] - start[a]) / step[a];
+          t0 = std::max(t0, std::ceil(std::min(ta, tb)));
+          t1 = std::min(t1, std::max(ta, tb));
+        }
+        for (double t = t0; t <= t1 && !hidden[id]; t += 1.0) {
+          const Eigen::Vector3i q = (start + t * step).array().round().cast<int>();
+          if ((q.array() < 0).any() || (q.array() >= n.array()).any()) break;
+          hidden[id] = solid[grid.index(q.x(), q.y(), q.z())];
+        }
+      }
+    }
+  }
+  return hidden;
+}
+
 }  // namespace
 
 std::vector<double> squaredDistanceTo(const DensityGrid& grid, const std::vector<char>& feature) {
@@ -114,21 +158,26 @@ std::vector<double> squaredDistanceTo(const DensityGrid& grid, const std::vector
   return d2;
 }
 
-DensityGrid solidifyField(const DensityGrid& field, double level, double radius, SolidReport* report) {
+DensityGrid solidifyField(const DensityGrid& field, double level, const SolidConfig& config, SolidReport* report) {
   field.validate();
-  if (!(radius >= 0.0) || !std::isfinite(radius)) {
+  if (!(config.radius >= 0.0) || !std::isfinite(config.radius) || !config.behind.allFinite()) {
     std::ostringstream message;
-    message << "solid radius " << radius << " must be a finite length >= 0 in the scene's units (0: no closing)";
+    message << "solid radius " << config.radius << " must be a finite length >= 0 in the scene's units (0: no "
+            << "closing), and the direction behind (" << config.behind.transpose() << ") finite";
     throw core::Error(message.str());
   }
   SolidReport local;
   SolidReport& out = report ? *report : local;
   out = SolidReport{};
-  out.radius_cells = radius / field.spacing.maxCoeff();
+  out.radius_cells = config.radius / field.spacing.maxCoeff();
   std::vector<char> inside(field.values.size());
   for (std::size_t id = 0; id < inside.size(); ++id) inside[id] = field.values[id] > level;
-  const std::vector<char> closed = radius > 0.0 ? closing(field, inside, radius) : inside;
-  const std::vector<char> enclosed = enclosedOutside(field, closed);
+  const std::vector<char> closed = config.radius > 0.0 ? closing(field, inside, config.radius) : inside;
+  std::vector<char> hidden(inside.size(), 0);
+  if (config.behind != Eigen::Vector3d::Zero()) hidden = hiddenBehind(field, closed, config.behind.normalized());
+  std::vector<char> solid_mask = closed;
+  for (std::size_t id = 0; id < inside.size(); ++id) solid_mask[id] = closed[id] || hidden[id];
+  const std::vector<char> enclosed = enclosedOutside(field, solid_mask);
   const float fill = static_cast<float>(level > 0.0 ? 2.0 * level : level + 1.0);
   DensityGrid solid = field;
   const Eigen::Vector3i& n = field.dims;
@@ -138,9 +187,9 @@ DensityGrid solidifyField(const DensityGrid& field, double level, double radius,
     for (int j = 1; j + 1 < n.y(); ++j) {
       for (int i = 1; i + 1 < n.x(); ++i) {
         const std::size_t id = field.index(i, j, k);
-        if (inside[id] || !(closed[id] || enclosed[id])) continue;
+        if (inside[id] || !(solid_mask[id] || enclosed[id])) continue;
         solid.values[id] = std::max(solid.values[id], fill);
-        ++(closed[id] ? out.closed_nodes : out.cavity_nodes);
+        ++(closed[id] ? out.closed_nodes : hidden[id] ? out.hidden_nodes : out.cavity_nodes);
       }
     }
   }

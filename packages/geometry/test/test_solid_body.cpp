@@ -38,7 +38,7 @@ MeshExtractionConfig densitySurface(double solid_radius, bool keep_largest) {
   MeshExtractionConfig config;
   config.surface = SurfaceDefinition::kDensity;
   config.threshold = 2.5;
-  config.solid_radius = solid_radius;
+  config.solid.radius = solid_radius;
   config.repair.keep_largest_component = keep_largest;
   return config;
 }
@@ -103,6 +103,34 @@ TEST(SolidBody, BoxedBodyIsNotErodedWhereTheBoxCutsIt) {
   EXPECT_NEAR(solid.volume, plain.volume, 0.005 * plain.volume);
 }
 
+TEST(SolidBody, ShellSeenFromOneSideIsFilledBehindUpToTheBox) {
+  // A dome (a spherical shell 0.04 thick, x > 0 only) open towards -x, as a one-sided capture
+  // sees a head on a wall: the closing cannot shut its 0.6-wide mouth, the fill behind it can.
+  const DensityFunction dome = [](const float* points, std::int64_t n, float* sigma) {
+    for (std::int64_t i = 0; i < n; ++i) {
+      const Eigen::Vector3d p(points[3 * i], points[3 * i + 1], points[3 * i + 2]);
+      const double depth = std::min({0.02 - std::abs(p.norm() - 0.28), p.x()});
+      sigma[i] = static_cast<float>(2.5 + 1000.0 * depth);
+    }
+  };
+  const Eigen::AlignedBox3d box(Eigen::Vector3d(-0.1, -0.4, -0.4), Eigen::Vector3d(0.4, 0.4, 0.4));
+  const DensityGrid grid = sampleDensityInBox(dome, box, kResolution);
+  const double shell = 2.0 / 3.0 * M_PI * (std::pow(0.3, 3) - std::pow(0.26, 3));
+  const MeshExtractionResult closed_only = isolateObject(grid, densitySurface(0.06, true));
+  EXPECT_NEAR(closed_only.volume, shell, 0.1 * shell);
+  MeshExtractionConfig config = densitySurface(0.06, true);
+  config.solid.behind = Eigen::Vector3d(2.0, 0.0, 0.0);  // any length
+  const MeshExtractionResult filled = isolateObject(grid, config);
+  // The half ball and, behind its rim, a cylinder of radius 0.3 back to the box's face at -0.1
+  // (capped a cell inside it: the border layer stays empty).
+  const double h = grid.spacing.x();
+  const double solid = 2.0 / 3.0 * M_PI * std::pow(0.3, 3) + M_PI * 0.09 * (0.1 - h);
+  EXPECT_NEAR(filled.volume, solid, 0.03 * solid);
+  EXPECT_EQ(filled.topology.genus, 0);
+  EXPECT_EQ(filled.topology.components, 1u);
+  EXPECT_GT(filled.solid.hidden_nodes, 0u);
+}
+
 TEST(SolidBody, DistanceTransformIsExact) {
   DensityGrid grid;
   grid.dims = Eigen::Vector3i(9, 7, 5);
@@ -124,7 +152,10 @@ TEST(SolidBody, DistanceTransformIsExact) {
 
 TEST(SolidBody, NegativeRadiusIsRefused) {
   const DensityGrid grid = sampleDensityInBox(body(false, false), kBox, 16);
-  EXPECT_THROW(solidifyField(grid, 2.5, -0.1), core::Error);
+  EXPECT_THROW(solidifyField(grid, 2.5, SolidConfig{-0.1}), core::Error);
+  SolidConfig nan_direction;
+  nan_direction.behind = Eigen::Vector3d(std::nan(""), 0, 1);
+  EXPECT_THROW(solidifyField(grid, 2.5, nan_direction), core::Error);
   EXPECT_THROW(extractMesh(grid, densitySurface(std::nan(""), true)), core::Error);
 }
 

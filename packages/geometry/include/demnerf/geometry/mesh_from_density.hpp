@@ -24,12 +24,12 @@ struct MeshExtractionConfig {
   double threshold = 2.5;
   /// kOpacity: opacity at the surface, in (0, 1); 0.5 is where a rendered ray's depth lands.
   double opacity = 0.5;
-  /// > 0: the inside is made solid before the surface is taken (solidifyField): a closing by a
-  /// ball of this radius (the scene's units) shuts tunnels and gaps narrower than about twice it,
-  /// and cavities sealed off from outside are filled. 0 (the default) takes the level set as is,
-  /// which is right for synthetic bodies whose density is solid; a real capture's is a sponge
-  /// (the fox's head: genus ~450 at density 20) and wants 2-4 cells (docs/nerf_real_captures.md).
-  double solid_radius = 0.0;
+  /// The inside made solid before the surface is taken (solidifyField): a closing that shuts
+  /// tunnels, a fill of what the body hides from a one-sided capture's cameras, and cavities
+  /// sealed off from outside filled. Off by default, which is right for synthetic bodies whose
+  /// density is solid; a real capture's is a shell with tunnels (the fox's head: genus ~450 at
+  /// density 20, open at the back the cameras never saw), see docs/nerf_real_captures.md.
+  SolidConfig solid;
   MeshRepairConfig repair;
   /// Edge-collapse budget applied after repair (0 keeps every marching-tetrahedra face).
   MeshSimplificationConfig simplification{0};
@@ -45,7 +45,7 @@ struct MeshExtractionResult {
   MeshRepairReport repair;
   MeshSimplificationReport simplification;
   double iso_value = 0.0;  ///< the level extracted: the density threshold, or -ln(1 - opacity)
-  SolidReport solid;       ///< what solid_radius filled (zeros when it is 0)
+  SolidReport solid;       ///< what the solid config filled (zeros when it is off)
   SurfaceTopology topology;  ///< of the final mesh: components, Euler characteristic, genus
 };
 

@@ -7,27 +7,45 @@
 // gap narrower than about 2r while leaving convex parts of the outline where they were, and a
 // flood of the empty nodes from the grid's border then fills whatever it sealed off inside.
 
+#include <Eigen/Core>
 #include <cstddef>
+#include <vector>
 
 #include "demnerf/core/ply.hpp"
 #include "demnerf/geometry/density_grid.hpp"
 
 namespace demnerf::geometry {
 
+struct SolidConfig {
+  /// The closing's radius in the scene's units (0: none). Shuts tunnels and gaps narrower than
+  /// about twice it; convex parts of the outline stay where they were.
+  double radius = 0.0;
+  /// Non-zero: the direction from the body towards the cameras of a capture that saw it from one
+  /// side only (the fox on its wall). Every node the inside hides from that side, i.e. whose ray
+  /// along it meets the inside before leaving the grid, is filled: space no camera could see
+  /// into counts as body, up to the box's far face. Zero: no such fill (captures seen all round).
+  Eigen::Vector3d behind = Eigen::Vector3d::Zero();
+  bool enabled() const { return radius != 0.0 || behind != Eigen::Vector3d::Zero(); }
+};
+
 struct SolidReport {
   double radius_cells = 0.0;       ///< the closing's radius in grid cells (the largest spacing's)
   std::size_t closed_nodes = 0;    ///< outside nodes the closing made inside (tunnels, gaps, dents)
+  std::size_t hidden_nodes = 0;    ///< outside nodes hidden behind the inside (SolidConfig::behind)
   std::size_t cavity_nodes = 0;    ///< outside nodes no path of outside nodes joins to the border
 };
 
 /// The field with its inside ({value > level}) made solid: a closing by a Euclidean ball of
-/// `radius` (scene units; 0 skips it), then every outside node not 6-connected to the grid's
-/// border through outside nodes is filled. Nodes made inside get max(value, 2 level) (level + 1
-/// for level <= 0), which puts the new surface half-way between them and their outside
-/// neighbours; other nodes keep their values, so surfaces the closing leaves alone do not move.
-/// Beyond the grid counts as neither inside nor outside: a body the box cuts is not eroded from
-/// the cut, and the grid's outermost layer of nodes is never filled (the cut's cap stays put). Throws core::Error for a negative or non-finite radius.
-DensityGrid solidifyField(const DensityGrid& field, double level, double radius, SolidReport* report = nullptr);
+/// config.radius, then the fill of what the inside hides from config.behind, then every outside
+/// node not 6-connected to the grid's border through outside nodes is filled. Nodes made inside
+/// get max(value, 2 level) (level + 1 for level <= 0), which puts the new surface half-way
+/// between them and their outside neighbours; other nodes keep their values, so surfaces the
+/// solid leaves alone do not move. Beyond the grid counts as neither inside nor outside: a body
+/// the box cuts is not eroded from the cut, and the grid's outermost layer of nodes is never
+/// filled (the cut's cap stays put). Throws core::Error for a negative or non-finite radius or
+/// a non-finite direction.
+DensityGrid solidifyField(const DensityGrid& field, double level, const SolidConfig& config,
+                          SolidReport* report = nullptr);
 
 /// Squared Euclidean distance (scene units) from each node to the nearest node where `feature`
 /// is true, over the grid only; a huge value (> 1e29) where there is none. Exact (separable lower
