@@ -23,6 +23,14 @@ CAPTURE_SECONDS=${CAPTURE_SECONDS:-300}   # NeRF training on a real capture (2 c
 CAPTURE_DOWNSCALE=${CAPTURE_DOWNSCALE:-4}  # the fox's 1080 x 1920 photos at 1/4
 CAPTURE_SPACING=${CAPTURE_SPACING:-0.05}   # particle spacing in the scene's units (fox: ~1.5 across)
 CAPTURE_SURFACE=${CAPTURE_SURFACE:-"--surface density --threshold 20"}  # fog-free on the fox; see README
+# More `demnerf extract` flags for this capture: CAPTURE_EXTRACT=... or the scenario's sidecar file
+# <scenario>.extract (one line). The fox's makes its sponge of a shell solid (--solid-radius, and
+# --solid-behind towards its cameras, which saw it from the front only; README, the fox section).
+# CAPTURE_EXTRACT= (set, empty) turns the sidecar off.
+if [ -z "${CAPTURE_EXTRACT+set}" ] && [ -f "${SCENARIO%.yaml}.extract" ]; then
+  CAPTURE_EXTRACT=$(grep -v '^#' "${SCENARIO%.yaml}.extract" | head -n 1)
+fi
+CAPTURE_EXTRACT=${CAPTURE_EXTRACT-}
 # A capture's extracted body is ragged (the fox's: ~6,000 particles, 5,000 of them on its surface):
 # the DEM's set-up and Newton take ~55 s of an idle 2-core machine there, at the CLI's 60 s default.
 CAPTURE_TIME_LIMIT=${CAPTURE_TIME_LIMIT:-180}
@@ -95,7 +103,7 @@ capture_run() {
       --downscale "$CAPTURE_DOWNSCALE" --config "$nerf_config" || return 1
   fi
   stage extract "$CLI" extract --model "$OUT/model.nerf" --mesh "$OUT/mesh.ply" --box="$BOX" --resolution 128 $CAPTURE_SURFACE \
-    || return 1
+    $CAPTURE_EXTRACT || return 1
   stage sample "$CLI" sample --mesh "$OUT/mesh.ply" --spacing "$CAPTURE_SPACING" --out "$OUT/particles.ply" || return 1
   stage simulate "$CLI" simulate --particles "$OUT/particles.ply" --scenario "$SCENARIO" --solver "$SOLVER" \
     --out "$OUT/displaced.ply" --time-limit "$CAPTURE_TIME_LIMIT"

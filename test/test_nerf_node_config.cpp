@@ -49,6 +49,8 @@ void expectSameSurface(const dem_nerf::SurfaceConfig& a, const dem_nerf::Surface
   EXPECT_EQ(a.mesh.threshold, b.mesh.threshold);
   EXPECT_EQ(a.mesh.simplification.max_faces, b.mesh.simplification.max_faces);
   EXPECT_EQ(a.isolation.max_second_piece_fraction, b.isolation.max_second_piece_fraction);
+  EXPECT_EQ(a.mesh.solid.radius, b.mesh.solid.radius);
+  EXPECT_EQ(a.mesh.solid.behind, b.mesh.solid.behind);
   ASSERT_EQ(a.box.has_value(), b.box.has_value());
   if (a.box) EXPECT_TRUE(a.box->isApprox(*b.box));
 }
@@ -69,13 +71,17 @@ TEST(NerfNodeConfig, DefaultsAreTheCommandLinesDefaults) {
 TEST(NerfNodeConfig, ExtractionNamespaceIsDemnerfExtractsFlags) {
   const NerfNodeConfig config = NerfNodeConfig::fromParameters(ParameterMap{
       {"extraction", keys({{"resolution", 128}, {"surface", "density"}, {"threshold", 5},
-                           {"box", list({-0.1, -0.2, 0.0, 0.1, 0.2, 0.3})}, {"max_second_piece", 0.3}})}});
+                           {"box", list({-0.1, -0.2, 0.0, 0.1, 0.2, 0.3})}, {"max_second_piece", 0.3},
+                           {"solid_radius", 0.08}, {"solid_behind", list({0.9, -0.4, 0.0})}})}});
   const demnerf::cli::Arguments flags({"--resolution", "128", "--threshold", "5", "--box", "-0.1,-0.2,0,0.1,0.2,0.3",
-                                       "--max-second-piece", "0.3"},
+                                       "--max-second-piece", "0.3", "--solid-radius", "0.08", "--solid-behind",
+                                       "0.9,-0.4,0"},
                                       {});
   expectSameSurface(config.extraction, demnerf::cli::surfaceFlags(flags));
   ASSERT_TRUE(config.extraction.box.has_value());
   EXPECT_DOUBLE_EQ(config.extraction.box->max().z(), 0.3);
+  EXPECT_EQ(config.extraction.mesh.solid.radius, 0.08);
+  EXPECT_EQ(config.extraction.mesh.solid.behind, Eigen::Vector3d(0.9, -0.4, 0.0));
 }
 
 TEST(NerfNodeConfig, NerfNamespaceGoesOverTheFileAndSamplingIsItsOwn) {
@@ -104,6 +110,10 @@ TEST(NerfNodeConfig, BadNamespacesAndOldNamesAreRefusedByName) {
   EXPECT_NE(refusal(ParameterMap{{"extraction", keys({{"resolutoin", 64}})}}).find("unknown key 'resolutoin'"),
             std::string::npos);
   EXPECT_NE(refusal(ParameterMap{{"extraction", keys({{"box", list({0, 0, 0, -1, 1, 1})}})}}).find("'box'"),
+            std::string::npos);
+  EXPECT_NE(refusal(ParameterMap{{"extraction", keys({{"solid_radius", -0.1}})}}).find("'solid_radius'"),
+            std::string::npos);
+  EXPECT_NE(refusal(ParameterMap{{"extraction", keys({{"solid_behind", list({1, 0})}})}}).find("[dx, dy, dz]"),
             std::string::npos);
   EXPECT_NE(refusal(ParameterMap{{"sampling", keys({{"method", "hex"}})}}).find("random, poisson or grid"),
             std::string::npos);

@@ -49,6 +49,15 @@ Figures runExtract(const Arguments& arguments) {
                  {"nodes_dropped", pieces.nodes_dropped},
                  {"components_removed", result.repair.components_removed},
                  {"holes_filled", result.repair.holes_filled},
+                 {"solid_radius", config.mesh.solid.radius},
+                 {"solid_behind", {config.mesh.solid.behind.x(), config.mesh.solid.behind.y(), config.mesh.solid.behind.z()}},
+                 {"solid_hidden_nodes", result.solid.hidden_nodes},
+                 {"solid_radius_cells", result.solid.radius_cells},
+                 {"solid_closed_nodes", result.solid.closed_nodes},
+                 {"solid_cavity_nodes", result.solid.cavity_nodes},
+                 {"surface_components", result.topology.components},
+                 {"euler_characteristic", result.topology.euler},
+                 {"genus", result.topology.genus},
                  {"seconds", seconds},
                  {"mesh", mesh_path}};
 }

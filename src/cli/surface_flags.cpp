@@ -1,14 +1,38 @@
 #include "surface_flags.hpp"
 
+#include <cmath>
 #include <sstream>
+#include <vector>
 
 #include "command.hpp"
 #include "demnerf/core/error.hpp"
 
 namespace demnerf::cli {
+namespace {
+
+// "dx,dy,dz", a direction (any length but zero) for --solid-behind.
+Eigen::Vector3d direction(const std::string& text) {
+  std::stringstream stream(text);
+  std::string item;
+  std::vector<double> numbers;
+  try {
+    while (std::getline(stream, item, ',')) numbers.push_back(std::stod(item));
+  } catch (const std::exception&) {
+    numbers.clear();
+  }
+  Eigen::Vector3d d = Eigen::Vector3d::Zero();
+  if (numbers.size() == 3) d = Eigen::Vector3d(numbers[0], numbers[1], numbers[2]);
+  if (numbers.size() != 3 || !d.allFinite() || d.isZero()) {
+    throw UsageError("option --solid-behind expects a direction dx,dy,dz (from the object towards the cameras, "
+                     "not zero), got '" + text + "'");
+  }
+  return d;
+}
+
+}  // namespace
 
 std::set<std::string> surfaceFlagNames() {
-  return {"resolution", "surface", "opacity", "threshold", "max-faces", "smooth", "box", "max-second-piece"};
+  return {"resolution", "surface", "opacity", "threshold", "max-faces", "smooth", "box", "max-second-piece", "solid-radius", "solid-behind"};
 }
 
 dem_nerf::SurfaceConfig surfaceFlags(const Arguments& arguments) {
@@ -41,6 +65,10 @@ dem_nerf::SurfaceConfig surfaceFlags(const Arguments& arguments) {
   }
   config.isolation.max_second_piece_fraction =
       arguments.number("max-second-piece", config.isolation.max_second_piece_fraction);
+  config.mesh.solid.radius = arguments.number("solid-radius", config.mesh.solid.radius);
+  if (!(config.mesh.solid.radius >= 0.0) || !std::isfinite(config.mesh.solid.radius))
+    throw UsageError("option --solid-radius expects a length >= 0 in the scene's units (0: no closing)");
+  if (arguments.has("solid-behind")) config.mesh.solid.behind = direction(arguments.text("solid-behind"));
   return config;
 }
 
@@ -52,7 +80,10 @@ std::string surfaceFlagsUsage() {
        << " (density surface)] [--max-faces 0 (0: keep all)] [--smooth 0] "
        << "[--box xmin,ymin,zmin,xmax,ymax,zmax (the scene's frame: mesh only the object inside, its largest piece)] "
        << "[--max-second-piece " << defaults.isolation.max_second_piece_fraction
-       << " (refuse a box whose second piece has this fraction of the largest's size)]";
+       << " (refuse a box whose second piece has this fraction of the largest's size)] "
+       << "[--solid-radius " << defaults.mesh.solid.radius
+       << " (> 0: close tunnels narrower than about twice this, in the scene's units, and fill cavities)] "
+       << "[--solid-behind dx,dy,dz (towards the cameras of a one-sided capture: fill what the body hides)]";
   return text.str();
 }
 

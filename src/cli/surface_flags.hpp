@@ -13,8 +13,8 @@ namespace demnerf::cli {
 /// The flags' names, for Arguments::rejectUnknown.
 std::set<std::string> surfaceFlagNames();
 
-/// --resolution, --surface, --opacity, --threshold, --max-faces, --smooth, --box and
-/// --max-second-piece over SurfaceConfig's defaults; UsageError naming the flag when one is bad.
+/// --resolution, --surface, --opacity, --threshold, --max-faces, --smooth, --box,
+/// --max-second-piece, --solid-radius and --solid-behind over SurfaceConfig's defaults; UsageError naming the flag when one is bad.
 /// --threshold alone means a density surface (its meaning before opacity surfaces existed).
 dem_nerf::SurfaceConfig surfaceFlags(const Arguments& arguments);
 

@@ -43,6 +43,16 @@ Reader boxOf(std::optional<Eigen::AlignedBox3d>* box) {
   };
 }
 
+Reader directionOf(Eigen::Vector3d* direction) {
+  return [=](const YAML::Node& node) -> std::string {
+    if (!node.IsSequence() || node.size() != 3) return "must be [dx, dy, dz] (towards the cameras; [0, 0, 0]: off)";
+    const Eigen::Vector3d d(node[0].as<double>(), node[1].as<double>(), node[2].as<double>());
+    if (!d.allFinite()) return "must be finite, got " + YAML::Dump(node);
+    *direction = d;
+    return "";
+  };
+}
+
 }  // namespace
 
 SurfaceConfig parseSurfaceConfig(const std::string& yaml_text, const std::string& source, SurfaceConfig base) {
@@ -56,7 +66,9 @@ SurfaceConfig parseSurfaceConfig(const std::string& yaml_text, const std::string
                 {"max_faces", integerIn(&c.mesh.simplification.max_faces, 0, no_limit)},
                 {"smoothing", integerIn(&c.mesh.repair.smoothing_iterations, 0, 1000)},
                 {"box", boxOf(&c.box)},
-                {"max_second_piece", numberAtLeast(&c.isolation.max_second_piece_fraction, 0.0, true)}});
+                {"max_second_piece", numberAtLeast(&c.isolation.max_second_piece_fraction, 0.0, true)},
+                {"solid_radius", numberAtLeast(&c.mesh.solid.radius, 0.0)},
+                {"solid_behind", directionOf(&c.mesh.solid.behind)}});
   return c;
 }
 

@@ -35,7 +35,8 @@ struct SurfaceConfig {
 };
 
 /// The settings in YAML text over `base`; keys: resolution, surface (opacity | density), opacity,
-/// threshold, max_faces, smoothing, box ([xmin, ymin, zmin, xmax, ymax, zmax]), max_second_piece.
+/// threshold, max_faces, smoothing, box ([xmin, ymin, zmin, xmax, ymax, zmax]), max_second_piece,
+/// solid_radius (>= 0, the scene's units), solid_behind ([dx, dy, dz] towards the cameras).
 /// Throws core::Error naming `source` and the key for unknown keys, wrong types and values out of
 /// range.
 SurfaceConfig parseSurfaceConfig(const std::string& yaml_text, const std::string& source, SurfaceConfig base = {});

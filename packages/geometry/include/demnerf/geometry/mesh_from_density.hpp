@@ -7,6 +7,7 @@
 #include "demnerf/geometry/density_grid.hpp"
 #include "demnerf/geometry/mesh_repair.hpp"
 #include "demnerf/geometry/mesh_simplification.hpp"
+#include "demnerf/geometry/solid_body.hpp"
 
 namespace demnerf::geometry {
 
@@ -23,6 +24,12 @@ struct MeshExtractionConfig {
   double threshold = 2.5;
   /// kOpacity: opacity at the surface, in (0, 1); 0.5 is where a rendered ray's depth lands.
   double opacity = 0.5;
+  /// The inside made solid before the surface is taken (solidifyField): a closing that shuts
+  /// tunnels, a fill of what the body hides from a one-sided capture's cameras, and cavities
+  /// sealed off from outside filled. Off by default, which is right for synthetic bodies whose
+  /// density is solid; a real capture's is a shell with tunnels (the fox's head: genus ~450 at
+  /// density 20, open at the back the cameras never saw), see docs/nerf_real_captures.md.
+  SolidConfig solid;
   MeshRepairConfig repair;
   /// Edge-collapse budget applied after repair (0 keeps every marching-tetrahedra face).
   MeshSimplificationConfig simplification{0};
@@ -38,6 +45,8 @@ struct MeshExtractionResult {
   MeshRepairReport repair;
   MeshSimplificationReport simplification;
   double iso_value = 0.0;  ///< the level extracted: the density threshold, or -ln(1 - opacity)
+  SolidReport solid;       ///< what the solid config filled (zeros when it is off)
+  SurfaceTopology topology;  ///< of the final mesh: components, Euler characteristic, genus
 };
 
 /// Parses "density" | "opacity" (the CLI's --surface); throws core::Error naming the value.
