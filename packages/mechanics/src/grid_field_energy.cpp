@@ -7,6 +7,7 @@
 #include <numeric>
 
 #include "demnerf/core/error.hpp"
+#include "dense_kernels.hpp"
 #include "parallel_for.hpp"
 
 namespace demnerf::mechanics {
@@ -289,14 +290,19 @@ void GridFieldEnergy::assembleCell(const Eigen::VectorXd& c, long cell, CellStif
     }
   }
   K.H.resize(3 * n, S_);
-  const Eigen::MatrixXd& E = reductions_[cell].map;
+  // The products G_i (A_ij G_j^T) are most of an assembly's work: dense_kernels.hpp (this CPU's code).
+  const double* G[3] = {K.G[0].data(), K.G[1].data(), K.G[2].data()};
+  double* out[6];
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j <= i; ++j) {
-      for (long k = 0; k < n; ++k)
-        K.H.middleRows<3>(3 * k).noalias() = K.A[k].block<3, 3>(3 * i, 3 * j) * K.G[j].middleCols<3>(3 * k).transpose();
-      K.K[i][j].noalias() = K.G[i] * K.H;
-      if (E.size() > 0) K.K[i][j] = E.transpose() * K.K[i][j] * E;
+      K.K[i][j].resize(S_, S_);
+      out[i * (i + 1) / 2 + j] = K.K[i][j].data();
     }
+  dense::cellStiffness(G, K.A.data()->data(), n, S_, K.H.data(), out);
+  const Eigen::MatrixXd& E = reductions_[cell].map;
+  if (E.size() > 0)
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j <= i; ++j) K.K[i][j] = E.transpose() * K.K[i][j] * E;
 }
 
 Eigen::Matrix3d GridFieldEnergy::deformationGradient(const Eigen::VectorXd& c, long q) const {
