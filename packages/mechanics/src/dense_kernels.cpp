@@ -55,4 +55,11 @@ void cellStiffness(const double* const G[3], const double* tangents, long n, int
   }
 }
 
+void reduceBlock(const double* E, int S, int r, const double* K, double* scratch, double* out) {
+  const Eigen::Map<const Eigen::MatrixXd> Em(E, S, r);
+  Eigen::Map<Eigen::MatrixXd> KE(scratch, S, r);
+  KE.noalias() = Eigen::Map<const Eigen::MatrixXd>(K, S, S) * Em;
+  Eigen::Map<Eigen::MatrixXd>(out, r, r).noalias() = Em.transpose() * KE;
+}
+
 }  // namespace demnerf::mechanics::dense

@@ -30,4 +30,8 @@ void panelBackward(const double* panel, int m, int w, const double* part, double
 void cellStiffness(const double* const G[3], const double* tangents, long n, int S, double* scratch,
                    double* const K[6]);
 
+/// A cut cell's blocks through its rows of the extension: out = E^T K E, with E S x r, K S x S and
+/// out r x r (column-major); scratch: S x r doubles.
+void reduceBlock(const double* E, int S, int r, const double* K, double* scratch, double* out);
+
 }  // namespace demnerf::mechanics::dense

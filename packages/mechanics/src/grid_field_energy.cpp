@@ -21,6 +21,7 @@ struct GridFieldEnergy::CellStiffness {
   Eigen::MatrixXd K[3][3];
   Eigen::MatrixXd G[3];  // S x 3n: row s holds Grad phi_(s,i) of each point of the cell
   Eigen::MatrixXd H;     // 3n x S: the tangent's (i, j) block times G[j]^T, point by point
+  Eigen::MatrixXd EK, reduced;  // a cut cell's K E, and E^T K E before it replaces K
   std::vector<Tangent> A;
   double at(int i, int j, long s, long t) const { return i >= j ? K[i][j](s, t) : K[j][i](t, s); }
 };
@@ -300,9 +301,15 @@ void GridFieldEnergy::assembleCell(const Eigen::VectorXd& c, long cell, CellStif
     }
   dense::cellStiffness(G, K.A.data()->data(), n, S_, K.H.data(), out);
   const Eigen::MatrixXd& E = reductions_[cell].map;
-  if (E.size() > 0)
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j <= i; ++j) K.K[i][j] = E.transpose() * K.K[i][j] * E;
+  if (E.size() == 0) return;
+  const int r = static_cast<int>(E.cols());
+  K.EK.resize(S_, r);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j <= i; ++j) {
+      K.reduced.resize(r, r);
+      dense::reduceBlock(E.data(), S_, r, K.K[i][j].data(), K.EK.data(), K.reduced.data());
+      K.K[i][j].swap(K.reduced);
+    }
 }
 
 Eigen::Matrix3d GridFieldEnergy::deformationGradient(const Eigen::VectorXd& c, long q) const {
