@@ -333,10 +333,16 @@ void GridFieldEnergy::scatter(const CellStiffness& K, const CellReduction& reduc
     const long b = reduction.nodes[sb];
     if (b < 0) continue;
     const auto& nb = neighbours_[b];
+    // A cell's nodes mostly come in ascending order (a cut cell's always): the search for a's rank
+    // in b's column starts from the last one found while they do.
+    long last_a = -1, last_rank = 0;
     for (long sa = 0; sa < count; ++sa) {
       const long a = reduction.nodes[sa];
       if (a < b) continue;
-      const long rank = std::lower_bound(nb.begin(), nb.end(), a) - nb.begin();
+      const auto from = nb.begin() + (a > last_a ? last_rank : 0);
+      const long rank = std::lower_bound(from, nb.end(), a) - nb.begin();
+      last_a = a;
+      last_rank = rank;
       for (int j = 0; j < 3; ++j) {
         double* column = values + outer[3 * b + j];
         for (int i = rank == 0 ? j : 0; i < 3; ++i) column[rowOffset(j, rank, i)] += K.at(i, j, sa, sb);
