@@ -7,6 +7,7 @@
 #include <numeric>
 
 #include "demnerf/core/error.hpp"
+#include "dense_kernels.hpp"
 #include "parallel_for.hpp"
 
 namespace demnerf::mechanics {
@@ -20,6 +21,7 @@ struct GridFieldEnergy::CellStiffness {
   Eigen::MatrixXd K[3][3];
   Eigen::MatrixXd G[3];  // S x 3n: row s holds Grad phi_(s,i) of each point of the cell
   Eigen::MatrixXd H;     // 3n x S: the tangent's (i, j) block times G[j]^T, point by point
+  Eigen::MatrixXd EK, reduced;  // a cut cell's K E, and E^T K E before it replaces K
   std::vector<Tangent> A;
   double at(int i, int j, long s, long t) const { return i >= j ? K[i][j](s, t) : K[j][i](t, s); }
 };
@@ -289,13 +291,24 @@ void GridFieldEnergy::assembleCell(const Eigen::VectorXd& c, long cell, CellStif
     }
   }
   K.H.resize(3 * n, S_);
-  const Eigen::MatrixXd& E = reductions_[cell].map;
+  // The products G_i (A_ij G_j^T) are most of an assembly's work: dense_kernels.hpp (this CPU's code).
+  const double* G[3] = {K.G[0].data(), K.G[1].data(), K.G[2].data()};
+  double* out[6];
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j <= i; ++j) {
-      for (long k = 0; k < n; ++k)
-        K.H.middleRows<3>(3 * k).noalias() = K.A[k].block<3, 3>(3 * i, 3 * j) * K.G[j].middleCols<3>(3 * k).transpose();
-      K.K[i][j].noalias() = K.G[i] * K.H;
-      if (E.size() > 0) K.K[i][j] = E.transpose() * K.K[i][j] * E;
+      K.K[i][j].resize(S_, S_);
+      out[i * (i + 1) / 2 + j] = K.K[i][j].data();
+    }
+  dense::cellStiffness(G, K.A.data()->data(), n, S_, K.H.data(), out);
+  const Eigen::MatrixXd& E = reductions_[cell].map;
+  if (E.size() == 0) return;
+  const int r = static_cast<int>(E.cols());
+  K.EK.resize(S_, r);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j <= i; ++j) {
+      K.reduced.resize(r, r);
+      dense::reduceBlock(E.data(), S_, r, K.K[i][j].data(), K.EK.data(), K.reduced.data());
+      K.K[i][j].swap(K.reduced);
     }
 }
 
@@ -320,10 +333,16 @@ void GridFieldEnergy::scatter(const CellStiffness& K, const CellReduction& reduc
     const long b = reduction.nodes[sb];
     if (b < 0) continue;
     const auto& nb = neighbours_[b];
+    // A cell's nodes mostly come in ascending order (a cut cell's always): the search for a's rank
+    // in b's column starts from the last one found while they do.
+    long last_a = -1, last_rank = 0;
     for (long sa = 0; sa < count; ++sa) {
       const long a = reduction.nodes[sa];
       if (a < b) continue;
-      const long rank = std::lower_bound(nb.begin(), nb.end(), a) - nb.begin();
+      const auto from = nb.begin() + (a > last_a ? last_rank : 0);
+      const long rank = std::lower_bound(from, nb.end(), a) - nb.begin();
+      last_a = a;
+      last_rank = rank;
       for (int j = 0; j < 3; ++j) {
         double* column = values + outer[3 * b + j];
         for (int i = rank == 0 ? j : 0; i < 3; ++i) column[rowOffset(j, rank, i)] += K.at(i, j, sa, sb);

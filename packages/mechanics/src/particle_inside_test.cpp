@@ -51,6 +51,13 @@ ParticleInsideTest::ParticleInsideTest(const core::ParticleCloud& cloud, double 
   members_.resize(positions_.size());
   std::vector<long> fill(start_.begin(), start_.end() - 1);
   for (std::size_t i = 0; i < positions_.size(); ++i) members_[fill[of[i]]++] = static_cast<int>(i);
+  surface_start_.assign(start_.size(), 0);
+  for (std::size_t i = 0; i < positions_.size(); ++i) surface_start_[of[i] + 1] += surface_[i];
+  for (std::size_t b = 1; b < surface_start_.size(); ++b) surface_start_[b] += surface_start_[b - 1];
+  surface_members_.resize(static_cast<std::size_t>(surface_start_.back()));
+  fill.assign(surface_start_.begin(), surface_start_.end() - 1);
+  for (std::size_t i = 0; i < positions_.size(); ++i)
+    if (surface_[i]) surface_members_[fill[of[i]]++] = static_cast<int>(i);
 }
 
 long ParticleInsideTest::bucketIndex(const Eigen::Vector3i& c) const {
@@ -65,6 +72,51 @@ void ParticleInsideTest::forEachIn(const Eigen::Vector3i& c, Visit&& visit) cons
   for (long k = start_[b]; k < start_[b + 1]; ++k) visit(members_[k]);
 }
 
+// A row of buckets along x is contiguous in the table: one range per (z, y), clipped to the table.
+template <typename Visit>
+void ParticleInsideTest::forEachSurfaceNear(const Eigen::Vector3i& c, Visit&& visit) const {
+  const Eigen::Vector3i lo = (c.array() - kNearRings).max(0);
+  const Eigen::Vector3i hi = (c.array() + kNearRings).min(dims_.array() - 1);
+  for (int z = lo(2); z <= hi(2); ++z)
+    for (int y = lo(1); y <= hi(1); ++y) {
+      const long row = (static_cast<long>(z) * dims_(1) + y) * dims_(0);
+      for (long k = surface_start_[row + lo(0)]; k < surface_start_[row + hi(0) + 1]; ++k) visit(surface_members_[k]);
+    }
+}
+
+void ParticleInsideTest::surfaceNeighbours(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi,
+                                           SurfaceNeighbours& out) const {
+  out.lo = bucket(lo);
+  out.hi = bucket(hi);
+  out.index.clear();
+  out.bucket.clear();
+  const Eigen::Vector3i a = (out.lo.array() - kNearRings).max(0);
+  const Eigen::Vector3i b = (out.hi.array() + kNearRings).min(dims_.array() - 1);
+  for (int z = a(2); z <= b(2); ++z)
+    for (int y = a(1); y <= b(1); ++y)
+      for (int x = a(0); x <= b(0); ++x) {
+        const long at = (static_cast<long>(z) * dims_(1) + y) * dims_(0) + x;
+        for (long k = surface_start_[at]; k < surface_start_[at + 1]; ++k) {
+          out.index.push_back(surface_members_[k]);
+          out.bucket.emplace_back(x, y, z);
+        }
+      }
+}
+
+// The gathered particles in bucket order are the window's in the same order, so the nearest one
+// and the edge planes' max / min (an order-dependent sequence) come out as signedDistance(x)'s.
+double ParticleInsideTest::signedDistance(const Eigen::Vector3d& x, const SurfaceNeighbours& near) const {
+  const Eigen::Vector3i c = bucket(x);
+  if ((c.array() < near.lo.array()).any() || (c.array() > near.hi.array()).any()) return signedDistance(x, nullptr);
+  const auto nearby = [&](auto&& visit) {
+    for (std::size_t k = 0; k < near.index.size(); ++k)
+      if ((near.bucket[k] - c).cwiseAbs().maxCoeff() <= kNearRings) visit(near.index[k]);
+  };
+  double d = 0.0;
+  if (nearSurface(x, nearby, nullptr, d)) return d;
+  return deepSide(x, c);
+}
+
 Eigen::Vector3i ParticleInsideTest::bucket(const Eigen::Vector3d& x) const {
   return ((x - lower_) / bucket_).array().floor().cast<int>();
 }
@@ -74,18 +126,18 @@ bool ParticleInsideTest::inside(const Eigen::Vector3d& x) const { return signedD
 double ParticleInsideTest::signedDistance(const Eigen::Vector3d& x, Eigen::Vector3d* normal) const {
   if (normal) normal->setZero();
   const Eigen::Vector3i c = bucket(x);
-  // Near the surface: the side of the nearest surface particle's tangent plane (moved out by the
-  // surface offset). Nearest, not a weighted blend of planes: a blend rounds convex edges by about
-  // a spacing (4 % of a unit cube's volume at 12 particles per edge).
-  const int near_rings = static_cast<int>(std::ceil(kSurfaceRadius));
-  const auto nearby = [&](auto&& visit) {
-    for (int z = -near_rings; z <= near_rings; ++z)
-      for (int y = -near_rings; y <= near_rings; ++y)
-        for (int xx = -near_rings; xx <= near_rings; ++xx)
-          forEachIn(c + Eigen::Vector3i(xx, y, z), [&](int i) {
-            if (surface_[i]) visit(i);
-          });
-  };
+  const auto nearby = [&](auto&& visit) { forEachSurfaceNear(c, visit); };
+  double d = 0.0;
+  if (nearSurface(x, nearby, normal, d)) return d;
+  return deepSide(x, c);
+}
+
+// Near the surface: the side of the nearest surface particle's tangent plane (moved out by the
+// surface offset). Nearest, not a weighted blend of planes: a blend rounds convex edges by about
+// a spacing (4 % of a unit cube's volume at 12 particles per edge).
+template <typename Nearby>
+bool ParticleInsideTest::nearSurface(const Eigen::Vector3d& x, Nearby&& nearby, Eigen::Vector3d* normal,
+                                     double& d) const {
   int nearest = -1;
   double nearest_d2 = kSurfaceRadius * kSurfaceRadius * spacing_ * spacing_;
   nearby([&](int i) {
@@ -95,12 +147,14 @@ double ParticleInsideTest::signedDistance(const Eigen::Vector3d& x, Eigen::Vecto
       nearest = i;
     }
   });
-  if (nearest >= 0) {
-    int active = nearest;
-    const double d = distanceNear(x, nearest, nearby, active);
-    if (normal) *normal = normals_[active].normalized();
-    return d;
-  }
+  if (nearest < 0) return false;
+  int active = nearest;
+  d = distanceNear(x, nearest, nearby, active);
+  if (normal) *normal = normals_[active].normalized();
+  return true;
+}
+
+double ParticleInsideTest::deepSide(const Eigen::Vector3d& x, const Eigen::Vector3i& c) const {
   // Away from the surface: the nearest particle within reach must carry volume (found in shells
   // of buckets; shell r holds every particle closer than r buckets).
   const int rings = static_cast<int>(std::ceil(reach_ / bucket_)) + 1;

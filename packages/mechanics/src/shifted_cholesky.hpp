@@ -162,27 +162,38 @@ class ShiftedCholesky {
   // speed (3000 unknowns: 7 s against 2 s) and cannot stop at the first negative pivot of a failed
   // shift, so a factor denser than kDenseShare of a full one is factorised dense.
   bool factorise(const Eigen::SparseMatrix<double>& H) {
+    // H in the kept order, permuted once per call: the analysis and the factorisation share it
+    // (on the T-bar's 14k unknowns each copy is a pass over ~4M entries).
+    Eigen::SparseMatrix<double> ordered;
     if (!analysed_) {
       amd_ldlt_.analyzePattern(H);
       double sparse_ops = amd_ldlt_.operations();
       if (ordered_) {
-        ordered_ldlt_.analyzePattern(permuted(H));
+        ordered = permuted(H);
+        ordered_ldlt_.analyzePattern(ordered);
         ordered_ = ordered_ldlt_.operations() < amd_ldlt_.operations();
         sparse_ops = std::min(sparse_ops, ordered_ldlt_.operations());
       }
       // The order kept is applied explicitly; the factor itself is supernodal
       // (supernodal_cholesky.hpp: the same operations, in dense blocks).
-      if (!ordered_) permutation_ = amd_ldlt_.permutationP();
+      if (!ordered_) {
+        permutation_ = amd_ldlt_.permutationP();
+        ordered = Eigen::SparseMatrix<double>();
+      }
       const double n = static_cast<double>(H.rows());
       dense_ = H.rows() <= kMaxDense && sparse_ops > kDenseShare * n * n * n / 3.0;
-      if (!dense_) supernodal_.analyse(permuted(H));
+      if (!dense_) {
+        if (ordered.size() == 0) ordered = permuted(H);
+        supernodal_.analyse(ordered);
+      }
       analysed_ = true;
     }
     if (dense_) {
       dense_llt_.compute(Eigen::MatrixXd(H));
       return dense_llt_.info() == Eigen::Success;
     }
-    return supernodal_.factorise(permuted(H));
+    if (ordered.size() == 0) ordered = permuted(H);
+    return supernodal_.factorise(ordered);
   }
 
   // (S (S H S + shift)^-1 S) b: the last factorisation's inverse in the unscaled unknowns.

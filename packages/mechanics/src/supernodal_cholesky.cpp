@@ -7,6 +7,8 @@
 #include <thread>
 #include <stdexcept>
 
+#include "dense_kernels.hpp"
+
 namespace demnerf::mechanics {
 namespace {
 
@@ -131,8 +133,9 @@ bool SupernodalCholesky::factorise(const Eigen::SparseMatrix<double>& lower) {
   // Group g's supernodes in column order (children first); g = -1 after the threads' subtrees.
   const auto run = [&](int g) {
     std::vector<int> position(n_, -1);
+    std::vector<double> front;  // reused: a fresh front per supernode cost a page fault per 4 kB
     for (long s = 0; s < supernodes() && !failed; ++s)
-      if (group_[s] == g && !factoriseSupernode(lower, s, updates, position)) failed = true;
+      if (group_[s] == g && !factoriseSupernode(lower, s, updates, position, front)) failed = true;
   };
   std::vector<std::thread> pool;
   for (int g = 1; g < threads_; ++g) pool.emplace_back(run, g);
@@ -145,12 +148,15 @@ bool SupernodalCholesky::factorise(const Eigen::SparseMatrix<double>& lower) {
 // The front of supernode s: A's columns and the children's updates (extend-add), its dense
 // Cholesky, the panel below and the Schur complement it passes to its parent.
 bool SupernodalCholesky::factoriseSupernode(const Eigen::SparseMatrix<double>& lower, long s,
-                                            std::vector<Eigen::MatrixXd>& updates, std::vector<int>& position) {
+                                            std::vector<Eigen::MatrixXd>& updates, std::vector<int>& position,
+                                            std::vector<double>& front_buffer) {
   const int f = first_[s], w = first_[s + 1] - f;
   const std::vector<int>& rows = rows_[s];
   const int m = static_cast<int>(rows.size());
   for (int i = 0; i < m; ++i) position[rows[i]] = i;
-  Eigen::MatrixXd front = Eigen::MatrixXd::Zero(m, m);
+  if (front_buffer.size() < static_cast<std::size_t>(m) * m) front_buffer.resize(static_cast<std::size_t>(m) * m);
+  Eigen::Map<Eigen::MatrixXd> front(front_buffer.data(), m, m);
+  front.setZero();
   for (int j = f; j < f + w; ++j)
     for (Eigen::SparseMatrix<double>::InnerIterator it(lower, j); it; ++it) front(position[it.row()], j - f) += it.value();
   std::vector<int> to;
@@ -164,19 +170,10 @@ bool SupernodalCholesky::factoriseSupernode(const Eigen::SparseMatrix<double>& l
       for (int a = b; a < mu; ++a) front(to[a], to[b]) += U(a, b);
     updates[c] = Eigen::MatrixXd();
   }
-  const Eigen::LLT<Eigen::MatrixXd, Eigen::Lower> llt(front.topLeftCorner(w, w));
-  if (llt.info() != Eigen::Success) return false;
-  Eigen::MatrixXd& panel = panels_[s];
-  panel.resize(m, w);
-  panel.topRows(w) = llt.matrixLLT();
-  if (m > w) {
-    auto below = panel.bottomRows(m - w);
-    below = front.bottomLeftCorner(m - w, w);
-    llt.matrixU().solveInPlace<Eigen::OnTheRight>(below);  // L21 L11^T = A21
-    Eigen::MatrixXd update = front.bottomRightCorner(m - w, m - w);
-    update.selfadjointView<Eigen::Lower>().rankUpdate(below, -1.0);
-    updates[s] = std::move(update);
-  }
+  // L11, L21 L11^T = A21 and the Schur complement, in place (dense_kernels.hpp: this CPU's code).
+  if (!dense::factorFront(front.data(), m, w)) return false;
+  panels_[s] = front.leftCols(w);
+  if (m > w) updates[s] = front.bottomRightCorner(m - w, m - w);
   return true;
 }
 
@@ -186,20 +183,16 @@ Eigen::VectorXd SupernodalCholesky::solve(const Eigen::VectorXd& b) const {
   for (long s = 0; s < count; ++s) {  // L y = b
     const int f = first_[s], w = first_[s + 1] - f, m = static_cast<int>(rows_[s].size());
     const Eigen::MatrixXd& panel = panels_[s];
-    panel.topLeftCorner(w, w).triangularView<Eigen::Lower>().solveInPlace(y.segment(f, w));
-    if (m == w) continue;
-    part.noalias() = panel.bottomRows(m - w) * y.segment(f, w);
+    part.resize(m - w);
+    dense::panelForward(panel.data(), m, w, y.data() + f, part.data());
     for (int i = 0; i < m - w; ++i) y(rows_[s][w + i]) -= part(i);
   }
   for (long s = count - 1; s >= 0; --s) {  // L^T x = y
     const int f = first_[s], w = first_[s + 1] - f, m = static_cast<int>(rows_[s].size());
     const Eigen::MatrixXd& panel = panels_[s];
-    if (m > w) {
-      part.resize(m - w);
-      for (int i = 0; i < m - w; ++i) part(i) = y(rows_[s][w + i]);
-      y.segment(f, w).noalias() -= panel.bottomRows(m - w).transpose() * part;
-    }
-    panel.topLeftCorner(w, w).triangularView<Eigen::Lower>().transpose().solveInPlace(y.segment(f, w));
+    part.resize(m - w);
+    for (int i = 0; i < m - w; ++i) part(i) = y(rows_[s][w + i]);
+    dense::panelBackward(panel.data(), m, w, part.data(), y.data() + f);
   }
   return y;
 }

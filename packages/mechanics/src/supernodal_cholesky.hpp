@@ -55,7 +55,7 @@ class SupernodalCholesky {
   void buildStructures(const Eigen::SparseMatrix<double>& lower, const Eigen::VectorXi& parent);
   void splitSubtrees();
   bool factoriseSupernode(const Eigen::SparseMatrix<double>& lower, long s, std::vector<Eigen::MatrixXd>& updates,
-                          std::vector<int>& position);
+                          std::vector<int>& position, std::vector<double>& front_buffer);
 
   Eigen::Index n_ = 0;
   std::vector<int> first_;                  // supernode s holds columns first_[s] .. first_[s + 1] - 1

@@ -157,6 +157,38 @@ TEST(ParticleInsideTest, SignedDistanceIsTheDepthBelowAFace) {
   }
 }
 
+// The cut cells' probes share the surface particles gathered once for their sub-cell; each probe's
+// distance must be the per-point search's, bit for bit (the edges' max / min of planes depends on
+// the order they are met), also for boxes that reach past the particles' buckets.
+TEST(ParticleInsideTest, GatheredNeighboursGiveTheSameDistances) {
+  const Vector3d lo(0, 0, 0), hi(0.12, 0.06, 0.06);
+  const double spacing = 0.012;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  for (unsigned seed = 1; seed <= 2; ++seed) {
+    const dm::ParticleInsideTest inside(dm::test::randomSurfaceBox(lo, hi, spacing, seed));
+    dm::ParticleInsideTest::SurfaceNeighbours near;
+    long differ = 0, tried = 0, inside_count = 0;
+    for (int box = 0; box < 300; ++box) {
+      // Boxes of 0.3-1.5 spacings around the surface, some reaching beyond the body by a spacing.
+      const double edge = spacing * (0.3 + 1.2 * u01(rng));
+      const Vector3d corner = lo - Vector3d::Constant(spacing) +
+                              (hi - lo + Vector3d::Constant(2 * spacing - edge)).cwiseProduct(Vector3d(u01(rng), u01(rng), u01(rng)));
+      inside.surfaceNeighbours(corner, corner + Vector3d::Constant(edge), near);
+      for (int p = 0; p < 27; ++p) {
+        const Vector3d x = corner + edge * Vector3d(u01(rng), u01(rng), u01(rng));
+        const double d = inside.signedDistance(x);
+        differ += inside.signedDistance(x, near) != d;
+        inside_count += d <= 0;
+        ++tried;
+      }
+    }
+    EXPECT_EQ(differ, 0) << "seed " << seed;
+    EXPECT_GT(inside_count, tried / 10);  // the boxes meet the body, not only the space around it
+    EXPECT_LT(inside_count, tried * 9 / 10);
+  }
+}
+
 // The cut cells' probes count the share of their cube behind the surface: counted whole or not
 // at all they quantise each face to a sixth of a sub-cell (up to 5 % of this box's volume, 1.3 % of
 // the T-bar's on every cloud).

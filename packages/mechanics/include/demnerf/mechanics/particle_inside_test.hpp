@@ -28,6 +28,18 @@ class ParticleInsideTest {
   /// The same, and the unit normal of the tangent plane that gave it (`normal`, may be null), so
   /// that x - d n is the nearest point of the surface; zero beyond the surface particles' reach.
   double signedDistance(const Eigen::Vector3d& x, Eigen::Vector3d* normal) const;
+  /// The surface particles that can decide signedDistance() at any point of the box [lo, hi], in
+  /// the order it visits them, with their buckets. Gathered once for the many probes of a small
+  /// cube (the cell quadrature's cut cells: 216 probes each, most of a T-bar solve's set-up), which
+  /// then skip the bucket search.
+  struct SurfaceNeighbours {
+    Eigen::Vector3i lo, hi;  ///< the box's buckets
+    std::vector<int> index;
+    std::vector<Eigen::Vector3i> bucket;
+  };
+  void surfaceNeighbours(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, SurfaceNeighbours& out) const;
+  /// signedDistance(x) for x in the box `near` was gathered for: the same value, bit for bit.
+  double signedDistance(const Eigen::Vector3d& x, const SurfaceNeighbours& near) const;
   /// The cube root of the body's volume per volume-carrying particle (m).
   double spacing() const { return spacing_; }
   /// Sum of the particles' volumes (m^3).
@@ -57,8 +69,17 @@ class ParticleInsideTest {
   long bucketIndex(const Eigen::Vector3i& c) const;  ///< -1 outside the table
   template <typename Visit>
   void forEachIn(const Eigen::Vector3i& c, Visit&& visit) const;
+  /// Visits the surface particles of the buckets within kNearRings of c, in bucket order.
+  template <typename Visit>
+  void forEachSurfaceNear(const Eigen::Vector3i& c, Visit&& visit) const;
+  /// The signed distance from the surface particles `nearby` visits; false when none is near.
+  template <typename Nearby>
+  bool nearSurface(const Eigen::Vector3d& x, Nearby&& nearby, Eigen::Vector3d* normal, double& d) const;
   template <typename Nearby>
   double distanceNear(const Eigen::Vector3d& x, int nearest, Nearby&& nearby, int& active) const;
+  /// Beyond the surface particles' reach: inside or outside from the nearest particle (bucket c).
+  double deepSide(const Eigen::Vector3d& x, const Eigen::Vector3i& c) const;
+  static constexpr int kNearRings = 2;  ///< ceil(kSurfaceRadius): buckets searched for surface particles
 
   std::vector<Eigen::Vector3d> positions_, normals_;
   std::vector<char> surface_;
@@ -69,6 +90,10 @@ class ParticleInsideTest {
   Eigen::Vector3i dims_;
   std::vector<long> start_;  ///< bucket b holds members_[start_[b] .. start_[b + 1])
   std::vector<int> members_;
+  /// The surface particles alone, in the same buckets and order (a CSR table as start_, members_):
+  /// most probes only look for them, and most particles are not.
+  std::vector<long> surface_start_;
+  std::vector<int> surface_members_;
 };
 
 }  // namespace demnerf::mechanics
