@@ -177,8 +177,8 @@ Curve trainCurve(nerf::Trainer& trainer, const core::Dataset& dataset, const Bud
 }  // namespace
 
 int main(int argc, char** argv) {
-  // Sleeping OpenMP waits, as `demnerf train` and nerf_node train (OMP_WAIT_POLICY=active or a
-  // GOMP_SPINCOUNT in the environment keeps libgomp's spinning, to compare).
+  // Sleeping OpenMP waits, as `demnerf train` and nerf_node train. To compare with libgomp's
+  // default (spin 300,000 pauses, then sleep), run with GOMP_SPINCOUNT=300000.
   nerf::reexecWithPassiveOpenMpWait(argv);
   std::map<std::string, std::string> args;
   for (int i = 1; i + 1 < argc; i += 2) args[std::string(argv[i]).substr(2)] = argv[i + 1];
