@@ -25,12 +25,14 @@ CAPTURE_SPACING=${CAPTURE_SPACING:-0.05}   # particle spacing in the scene's uni
 CAPTURE_SURFACE=${CAPTURE_SURFACE:-"--surface density --threshold 20"}  # fog-free on the fox; see README
 # More `demnerf extract` flags for this capture: CAPTURE_EXTRACT=... or the scenario's sidecar file
 # <scenario>.extract (one line). The fox's makes its sponge of a shell solid (--solid-radius, and
-# --solid-behind towards its cameras, which saw it from the front only; README, the fox section).
+# --solid-cameras, which fills what none of its cameras, all in front, saw as empty; README, the
+# fox section). {data} in the flags stands for the capture's folder (DATA).
 # CAPTURE_EXTRACT= (set, empty) turns the sidecar off.
 if [ -z "${CAPTURE_EXTRACT+set}" ] && [ -f "${SCENARIO%.yaml}.extract" ]; then
   CAPTURE_EXTRACT=$(grep -v '^#' "${SCENARIO%.yaml}.extract" | head -n 1)
 fi
 CAPTURE_EXTRACT=${CAPTURE_EXTRACT-}
+CAPTURE_EXTRACT=${CAPTURE_EXTRACT//\{data\}/$DATA}
 # A capture's extracted body is ragged (the fox's: ~6,000 particles, 5,000 of them on its surface):
 # the DEM's set-up and Newton take ~55 s of an idle 2-core machine there, at the CLI's 60 s default.
 CAPTURE_TIME_LIMIT=${CAPTURE_TIME_LIMIT:-180}

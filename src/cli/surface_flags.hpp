@@ -14,7 +14,8 @@ namespace demnerf::cli {
 std::set<std::string> surfaceFlagNames();
 
 /// --resolution, --surface, --opacity, --threshold, --max-faces, --smooth, --box,
-/// --max-second-piece, --solid-radius and --solid-behind over SurfaceConfig's defaults; UsageError naming the flag when one is bad.
+/// --max-second-piece, --solid-radius, --solid-behind, --solid-cameras (loads the dataset's
+/// training cameras) and --solid-views over SurfaceConfig's defaults; UsageError naming the flag when one is bad.
 /// --threshold alone means a density surface (its meaning before opacity surfaces existed).
 dem_nerf::SurfaceConfig surfaceFlags(const Arguments& arguments);
 

@@ -166,6 +166,11 @@ DensityGrid solidifyField(const DensityGrid& field, double level, const SolidCon
             << "closing), and the direction behind (" << config.behind.transpose() << ") finite";
     throw core::Error(message.str());
   }
+  if (config.min_views < 1) throw core::Error("solid: min_views must be >= 1, got " + std::to_string(config.min_views));
+  if (!config.cameras.empty() && config.behind != Eigen::Vector3d::Zero()) {
+    throw core::Error("solid: give either the capture's cameras (space carving) or one direction behind the body, "
+                      "not both; the cameras' fill is the tighter one");
+  }
   SolidReport local;
   SolidReport& out = report ? *report : local;
   out = SolidReport{};
@@ -175,8 +180,20 @@ DensityGrid solidifyField(const DensityGrid& field, double level, const SolidCon
   const std::vector<char> closed = config.radius > 0.0 ? closing(field, inside, config.radius) : inside;
   std::vector<char> hidden(inside.size(), 0);
   if (config.behind != Eigen::Vector3d::Zero()) hidden = hiddenBehind(field, closed, config.behind.normalized());
+  if (!config.cameras.empty()) {
+    CarvingReport carving;
+    hidden = unseenByCameras(field, closed, config.cameras, config.min_views, &carving);
+    out.unseen_nodes = carving.unseen;
+  }
   std::vector<char> solid_mask = closed;
   for (std::size_t id = 0; id < inside.size(); ++id) solid_mask[id] = closed[id] || hidden[id];
+  // The carved fill meets the closed body along seams a grazing view slips through (slits a cell
+  // or two wide, genus 78 on the fox without this, 4 with it): the closing is taken once more on
+  // the union, which shuts them and leaves the carved outline alone elsewhere.
+  if (!config.cameras.empty() && config.radius > 0.0) {
+    solid_mask = closing(field, solid_mask, config.radius);
+    for (std::size_t id = 0; id < inside.size(); ++id) hidden[id] = solid_mask[id] && !closed[id];
+  }
   const std::vector<char> enclosed = enclosedOutside(field, solid_mask);
   const float fill = static_cast<float>(level > 0.0 ? 2.0 * level : level + 1.0);
   DensityGrid solid = field;

@@ -5,9 +5,10 @@
 // holed (genus ~450) and open at the back no camera saw, and most particles sampled in it land on
 // its surface. Three steps, each for one of these: a morphological closing (dilate the inside by
 // a ball of radius r, then erode the result by the same ball) shuts tunnels and gaps narrower
-// than about 2r while convex parts of the outline stay where they were; a fill behind the body,
-// as seen from the cameras of a one-sided capture, closes what they never saw; and a flood of
-// the empty nodes from the grid's border fills whatever is then sealed off inside.
+// than about 2r while convex parts of the outline stay where they were; a fill of what the
+// cameras of a one-sided capture never saw as empty (space carving against the capture's own
+// cameras, or, coarser, everything behind the body along one direction) closes the back; and a
+// flood of the empty nodes from the grid's border fills whatever is then sealed off inside.
 
 #include <Eigen/Core>
 #include <cstddef>
@@ -15,6 +16,7 @@
 
 #include "demnerf/core/ply.hpp"
 #include "demnerf/geometry/density_grid.hpp"
+#include "demnerf/geometry/visual_hull.hpp"
 
 namespace demnerf::geometry {
 
@@ -27,25 +29,36 @@ struct SolidConfig {
   /// along it meets the inside before leaving the grid, is filled: space no camera could see
   /// into counts as body, up to the box's far face. Zero: no such fill (captures seen all round).
   Eigen::Vector3d behind = Eigen::Vector3d::Zero();
-  bool enabled() const { return radius != 0.0 || behind != Eigen::Vector3d::Zero(); }
+  /// Non-empty: the capture's (training) cameras. Every node that no camera saw as empty (in its
+  /// image, with nothing of the closed body between them: unseenByCameras) is filled, so the back
+  /// of a head seen from the front is filled and the space beside it an oblique camera saw is
+  /// not. Tighter than `behind`, which it excludes. The carved fill is closed once more with
+  /// `radius`, which shuts the slits grazing views leave where it meets the closed body.
+  std::vector<ViewCamera> cameras;
+  /// With cameras: how many must see a node in plain view before it counts as empty (1: the
+  /// visual hull; the fox takes 4 so its thin ears, seen edge-on, keep a back).
+  int min_views = 1;
+  bool enabled() const { return radius != 0.0 || behind != Eigen::Vector3d::Zero() || !cameras.empty(); }
 };
 
 struct SolidReport {
   double radius_cells = 0.0;       ///< the closing's radius in grid cells (the largest spacing's)
   std::size_t closed_nodes = 0;    ///< outside nodes the closing made inside (tunnels, gaps, dents)
-  std::size_t hidden_nodes = 0;    ///< outside nodes hidden behind the inside (SolidConfig::behind)
+  std::size_t hidden_nodes = 0;    ///< outside nodes hidden behind the inside (behind, or cameras)
+  std::size_t unseen_nodes = 0;    ///< with cameras: outside nodes in no camera's image (filled too)
   std::size_t cavity_nodes = 0;    ///< outside nodes no path of outside nodes joins to the border
 };
 
 /// The field with its inside ({value > level}) made solid: a closing by a Euclidean ball of
-/// config.radius, then the fill of what the inside hides from config.behind, then every outside
+/// config.radius, then the fill of what the inside hides from config.behind or from every one of
+/// config.cameras that has the node in its image (nodes in none count as hidden), then every outside
 /// node not 6-connected to the grid's border through outside nodes is filled. Nodes made inside
 /// get max(value, 2 level) (level + 1 for level <= 0), which puts the new surface half-way
 /// between them and their outside neighbours; other nodes keep their values, so surfaces the
 /// solid leaves alone do not move. Beyond the grid counts as neither inside nor outside: a body
 /// the box cuts is not eroded from the cut, and the grid's outermost layer of nodes is never
-/// filled (the cut's cap stays put). Throws core::Error for a negative or non-finite radius or
-/// a non-finite direction.
+/// filled (the cut's cap stays put). Throws core::Error for a negative or non-finite radius,
+/// a non-finite direction, both a direction and cameras, or a camera unusable for carving.
 DensityGrid solidifyField(const DensityGrid& field, double level, const SolidConfig& config,
                           SolidReport* report = nullptr);
 
