@@ -5,6 +5,7 @@
 #include <atomic>
 #include <cmath>
 #include <exception>
+#include <limits>
 
 #include "demnerf/core/error.hpp"
 #include "demnerf/mechanics/particle_inside_test.hpp"
@@ -29,11 +30,33 @@ void gaussRule(int n, std::vector<double>& t, std::vector<double>& w) {
   }
 }
 
+// Signed distance to a region (negative inside): exact for spheres and halfspaces, and for boxes.
+double regionSignedDistance(const core::Region& region, const Eigen::Vector3d& x) {
+  switch (region.type) {
+    case core::Region::Type::kBox: {
+      const Eigen::Vector3d q = (x - region.center).cwiseAbs() - 0.5 * region.size;
+      return q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0);
+    }
+    case core::Region::Type::kSphere: return (x - region.center).norm() - region.radius;
+    case core::Region::Type::kHalfspace: return (x - region.center).dot(region.normal.normalized());
+  }
+  return 0.0;
+}
+
 class CellIntegrator {
  public:
   CellIntegrator(const ParticleInsideTest& inside, const CellQuadratureConfig& config)
-      : inside_(inside), levels_(config.boundary_levels) {
+      : inside_(inside), levels_(config.boundary_levels), held_(config.held_volumes) {
     gaussRule(config.points_per_axis, t_, w_);
+  }
+
+  // Signed distance to the union of the held volumes (+inf without any). Its magnitude never
+  // exceeds the distance to the union's boundary, so a cube farther than its half diagonal from
+  // that boundary by this measure is not cut by it.
+  double heldDistance(const Eigen::Vector3d& x) const {
+    double d = std::numeric_limits<double>::infinity();
+    for (const core::Region& r : held_) d = std::min(d, regionSignedDistance(r, x));
+    return d;
   }
 
   // Adds the Gauss points of the cube [lo, lo + edge] that lie inside; a cube whose probes (its
@@ -60,14 +83,33 @@ class CellIntegrator {
       const Eigen::Vector3d corner = lo + edge * Eigen::Vector3d(c & 1, (c >> 1) & 1, (c >> 2) & 1);
       mixed = inside_.inside(corner) != (inside_count > 0);
     }
-    if (mixed && level < levels_) {
+    // A held volume's boundary through a cell the body fills (in part) is a cut as well: D = 0 in
+    // the held part, so its Gauss points see nothing of the field, and a cell straddling the
+    // boundary whose points all fall inside the held part leaves its free strip unintegrated (the
+    // cuboid's halfspace clamp x <= 15 mm in a [0, 20] mm cell: a 9 mm strip where the field was
+    // free to invert). Such cells are split like surface-cut ones, and at the last level the free
+    // and the held part are moment-fitted apart, so the free part of every cell carries points.
+    const bool held_cut = (inside_count > 0 || mixed) &&
+                          std::abs(heldDistance(lo + 0.5 * edge * Eigen::Vector3d::Ones())) < 0.5 * std::sqrt(3.0) * edge;
+    if ((mixed || held_cut) && level < levels_) {
       const double half = 0.5 * edge;
       for (int c = 0; c < 8; ++c)
         add(lo + half * Eigen::Vector3d(c & 1, (c >> 1) & 1, (c >> 2) & 1), half, level + 1, out);
       return;
     }
+    if (held_cut) {
+      addCutCell(lo, edge, out, [this](const Eigen::Vector3d& p, const ParticleInsideTest::SurfaceNeighbours& near) {
+        return std::max(inside_.signedDistance(p, near), -heldDistance(p));
+      });
+      addCutCell(lo, edge, out, [this](const Eigen::Vector3d& p, const ParticleInsideTest::SurfaceNeighbours& near) {
+        return std::max(inside_.signedDistance(p, near), heldDistance(p));
+      });
+      return;
+    }
     if (mixed) {
-      addCutCell(lo, edge, out);
+      addCutCell(lo, edge, out, [this](const Eigen::Vector3d& p, const ParticleInsideTest::SurfaceNeighbours& near) {
+        return inside_.signedDistance(p, near);
+      });
       return;
     }
     for (std::size_t p = 0; p < points.size(); ++p)
@@ -84,7 +126,9 @@ class CellIntegrator {
   // a weight, so the (degree + 1)^3 functions that meet there stay distinguishable: one point at
   // the part's centroid leaves them soft modes (55 % error on a stretched cube). The tight box keeps
   // the weights of slab-like parts positive.
-  void addCutCell(const Eigen::Vector3d& lo, double edge, CellQuadrature& out) const {
+  // `distance` is the part's signed distance (the body's, or the body's less or within the held volumes).
+  template <class SignedDistance>
+  void addCutCell(const Eigen::Vector3d& lo, double edge, CellQuadrature& out, const SignedDistance& distance) const {
     constexpr int kProbes = 6;  // per axis
     const double probe = edge / kProbes;
     // Each probe counts with the share of its cube behind the surface, from the signed distance
@@ -102,7 +146,7 @@ class CellIntegrator {
       for (int j = 0; j < kProbes; ++j)
         for (int i = 0; i < kProbes; ++i) {
           const Eigen::Vector3d p = lo + probe * (Eigen::Vector3d(i, j, k) + Eigen::Vector3d::Constant(0.5));
-          const double share = std::clamp(0.5 - inside_.signedDistance(p, near) / probe, 0.0, 1.0);
+          const double share = std::clamp(0.5 - distance(p, near) / probe, 0.0, 1.0);
           if (!(share > 0.0)) continue;
           inside.push_back(p);
           fill.push_back(share);
@@ -154,6 +198,7 @@ class CellIntegrator {
  private:
   const ParticleInsideTest& inside_;
   int levels_;
+  const std::vector<core::Region>& held_;
   std::vector<double> t_, w_;
 };
 

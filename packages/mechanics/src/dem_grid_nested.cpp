@@ -43,8 +43,8 @@ void DemSolver::Impl::makeCoarseLevels(const Eigen::Vector3d& lo, const Eigen::V
   }
 }
 
-// Each level's cell quadrature (once: it depends on the cloud and the grid) and its lift (per
-// scenario), as buildGridQuadrature() does for the grid.
+// Each level's cell quadrature (once per set of held volumes: it depends on the cloud, the grid
+// and those) and its lift (per scenario), as buildGridQuadrature() does for the grid.
 void DemSolver::Impl::buildCoarseQuadratures() {
   for (CoarseLevel& level : coarse_levels) {
     if (level.points.empty()) {
@@ -54,6 +54,7 @@ void DemSolver::Impl::buildCoarseQuadratures() {
       // A coarse level only starts the fine Newton: its cut cells are moment-fitted whole (no
       // split), which costs an eighth of the inside test's probes and of the points.
       cq.boundary_levels = 0;
+      cq.held_volumes = gq_held_volumes;
       cq.threads = config.threads;
       std::ostringstream what;
       what << "cell quadrature of a nested grid (cells of " << level.grid->cell() << " m)";

@@ -21,14 +21,45 @@ using torch_support::toTensor;
 // the surface particles (DemConfig::grid_surface_share), interior particles near a fixture or
 // load split into 2 x 2 x 2 sub-points of their cube (Newton has no jitter to catch a ramp
 // between a region and the first particle layer).
+namespace {
+
+// The fixtures whose region's whole volume is held (no held face): the cell quadrature splits the
+// cells their boundaries cut (cell_quadrature.hpp, CellQuadratureConfig::held_volumes).
+std::vector<core::Region> heldVolumes(const core::Scenario& scenario, const std::vector<HeldFace>& held) {
+  std::vector<core::Region> volumes;
+  for (std::size_t f = 0; f < scenario.fixtures.size(); ++f)
+    if (!(f < held.size() && held[f].valid) && scenario.fixtures[f].constrained.any())
+      volumes.push_back(scenario.fixtures[f].region);
+  return volumes;
+}
+
+bool sameRegions(const std::vector<core::Region>& a, const std::vector<core::Region>& b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t k = 0; k < a.size(); ++k)
+    if (a[k].type != b[k].type || a[k].center != b[k].center || a[k].size != b[k].size ||
+        a[k].radius != b[k].radius || a[k].normal != b[k].normal)
+      return false;
+  return true;
+}
+
+}  // namespace
+
 void DemSolver::Impl::buildGridQuadrature() {
   if (config.grid.quadrature == DemConfig::GridQuadrature::kCells) {
-    // The cell quadrature depends on the cloud and the grid only, both fixed for the solver's
-    // life: built once, not per scenario (a patch basis runs up to 27 scenarios on one solver).
+    // The cell quadrature depends on the cloud, the grid and the held volumes: built once per
+    // set of held volumes, not per scenario (a patch basis runs up to 27 scenarios on one solver,
+    // all with the same fixtures).
+    std::vector<core::Region> volumes = heldVolumes(scenario, held);
+    if (!sameRegions(volumes, gq_held_volumes)) {
+      gq_points.clear();
+      for (CoarseLevel& level : coarse_levels) level.points.clear();
+      gq_held_volumes = std::move(volumes);
+    }
     if (gq_points.empty()) {
       CellQuadratureConfig cq;
       cq.points_per_axis = config.grid.gauss_points;
       cq.boundary_levels = config.grid.boundary_levels;
+      cq.held_volumes = gq_held_volumes;
       cq.threads = config.threads;
       std::ostringstream what;
       what << "cell quadrature of the feature grid (cells of " << grid->cell() << " m)";

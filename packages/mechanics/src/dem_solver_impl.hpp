@@ -78,6 +78,7 @@ struct DemSolver::Impl {
   // The grid Newton's fixed quadrature (particles near fixtures split, DemConfig::grid.refine_band).
   std::vector<Eigen::Vector3d> gq_points;
   std::vector<double> gq_volume;
+  std::vector<core::Region> gq_held_volumes;  // the fixture volumes the cell quadrature was built for
   DirichletLift gq_lift;
   GridNewtonCache grid_newton_cache;  // the last factorisation, across load steps and scenarios
   Tensor gq_x, gq_lift_t[4];

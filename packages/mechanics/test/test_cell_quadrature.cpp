@@ -224,3 +224,31 @@ TEST(CellQuadrature, IsTheSameOnAnyNumberOfThreads) {
     }
   }
 }
+
+// Gauss points inside a held fixture volume see nothing of the field (D = 0): a cell whose points
+// all fall inside the held part must still integrate its free part (the cuboid's halfspace clamp
+// left a 9 mm strip without points, and the field inverted there).
+TEST(CellQuadrature, IntegratesTheFreePartOfCellsAHeldVolumeCuts) {
+  const Vector3d lo(0, 0, 0), hi(0.2, 0.1, 0.1);
+  const dm::BsplineGrid grid(lo, hi, 0.023, 2);
+  // The clamp's plane past both Gauss points of a cell's 2-point rule (at 0.21 and 0.79 of it).
+  const double cell_lo = grid.origin().x() + grid.cell() * std::ceil((0.03 - grid.origin().x()) / grid.cell());
+  const double plane = cell_lo + 0.85 * grid.cell(), cell_hi = cell_lo + grid.cell();
+  dm::CellQuadratureConfig config;
+  demnerf::core::Region clamp;
+  clamp.type = demnerf::core::Region::Type::kHalfspace;
+  clamp.center = Vector3d(plane, 0, 0);
+  clamp.normal = Vector3d(1, 0, 0);
+  config.held_volumes = {clamp};
+  const dm::CellQuadrature q = dm::cellQuadrature(dm::makeBoxParticles(lo, hi, Eigen::Vector3i(20, 10, 10)), grid, config);
+  double strip = 0.0, held = 0.0, volume = 0.0;
+  for (std::size_t p = 0; p < q.points.size(); ++p) {
+    const double x = q.points[p].x();
+    volume += q.weights[p];
+    if (x > plane && x <= cell_hi) strip += q.weights[p];
+    if (x <= plane) held += q.weights[p];
+  }
+  EXPECT_NEAR(volume, 0.002, 1e-9);
+  EXPECT_NEAR(strip, (cell_hi - plane) * 0.01, 0.1 * (cell_hi - plane) * 0.01) << "the free strip of the cut cells";
+  EXPECT_NEAR(held, plane * 0.01, 0.02 * plane * 0.01) << "the held part keeps its volume";
+}

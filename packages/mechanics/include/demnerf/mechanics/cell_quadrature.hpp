@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "demnerf/core/ply.hpp"
+#include "demnerf/core/scenario.hpp"
 #include "demnerf/mechanics/bspline_grid.hpp"
 
 namespace demnerf::mechanics {
@@ -25,6 +26,12 @@ struct CellQuadratureConfig {
   /// their Gauss points, the cut ones of the last level keep theirs with weights fitted to their
   /// inside part (moment fitting on a 6^3 lattice of probes).
   int boundary_levels = 2;
+  /// Fixture regions whose whole volume is held (no held face, held_face.hpp): D = 0 inside them,
+  /// so Gauss points there see nothing of the field. Cells their boundary cuts are split like
+  /// surface-cut ones, and at the last level the free and the held part are moment-fitted apart,
+  /// so the free part of every cell carries points (a cell whose points all fell in the held part
+  /// left the free strip beside it unintegrated, and the field inverted there).
+  std::vector<core::Region> held_volumes;
   /// Threads that run the cells (0: every core); the points come out in the same order on any count.
   int threads = 0;
   /// Called on the calling thread with the share of the cells done (about every 1 %); it may throw
