@@ -15,7 +15,6 @@
 #include <chrono>
 #include <cmath>
 #include <ctime>
-#include <time.h>
 #include <cstdio>
 #include <fstream>
 #include <map>
@@ -28,7 +27,6 @@
 #include "demnerf/core/dataset.hpp"
 #include "demnerf/nerf/evaluate.hpp"
 #include "demnerf/nerf/model_io.hpp"
-#include "demnerf/nerf/openmp_wait.hpp"
 #include "demnerf/nerf/trainer.hpp"
 
 using namespace demnerf;
@@ -70,15 +68,6 @@ struct Window {
 /// CPU seconds of this process (all threads): beside wall seconds, a cost that other jobs on
 /// the shared machine inflate far less (they take cores away, not cycles from this process).
 double cpuSeconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
-/// CPU seconds of the calling (main) thread alone. It runs the serial parts and its share of
-/// every parallel one, so on an idle machine it is busy the whole step: 2 x this is the
-/// process's CPU on an idle 2-core machine whatever the OpenMP wait policy (spinning workers
-/// inflate cpuSeconds on a loaded machine; sleeping ones leave the serial parts counted once).
-double threadCpuSeconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
 
 void plot(const std::vector<Row>& rows, const std::string& path, const std::string& title, bool cpu) {
   auto x = [cpu](const Row& r) { return cpu ? r.cpu_seconds : r.seconds; };
@@ -112,7 +101,6 @@ struct Budget {
 struct Curve {
   std::vector<Row> rows;
   double trained = 0, cpu_trained = 0;  ///< wall and CPU seconds of training (evaluations excluded)
-  double main_cpu_trained = 0;          ///< of which the main thread's
   nerf::TrainProgress last;
   bool by_cpu = false;
 };
@@ -142,12 +130,11 @@ Curve trainCurve(nerf::Trainer& trainer, const core::Dataset& dataset, const Bud
       trainer.setBudget({0, std::max<std::int64_t>(1, static_cast<std::int64_t>(
                                                             trainer.iteration() * cpu_budget / cpu_trained))});
     }
-    const double cpu0 = cpuSeconds(), main0 = threadCpuSeconds();
+    const double cpu0 = cpuSeconds();
     const auto t0 = std::chrono::steady_clock::now();
     const nerf::StepResult r = trainer.step(1);
     trained += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     cpu_trained += cpuSeconds() - cpu0;
-    curve.main_cpu_trained += threadCpuSeconds() - main0;
     window.add(r);
     const double now = by_cpu ? cpu_trained : trained;
     if (iterations > 0 && trainer.iteration() % 100 == 0) {
@@ -177,9 +164,6 @@ Curve trainCurve(nerf::Trainer& trainer, const core::Dataset& dataset, const Bud
 }  // namespace
 
 int main(int argc, char** argv) {
-  // Sleeping OpenMP waits, as `demnerf train` and nerf_node train. To compare with libgomp's
-  // default (spin 300,000 pauses, then sleep), run with GOMP_SPINCOUNT=300000.
-  nerf::reexecWithPassiveOpenMpWait(argv);
   std::map<std::string, std::string> args;
   for (int i = 1; i + 1 < argc; i += 2) args[std::string(argv[i]).substr(2)] = argv[i + 1];
   auto get = [&](const std::string& k, const std::string& d) { return args.count(k) ? args[k] : d; };
@@ -214,8 +198,7 @@ int main(int argc, char** argv) {
     const nerf::TrainProgress& last = curve.last;
     const bool by_cpu = curve.by_cpu;
     if (get("final-eval", "1") == "0") {  // profiling runs: the training only
-      std::printf("trained_cpu_seconds %.2f\ntrained_main_thread_cpu_seconds %.2f\ntrained_seconds %.2f\n"
-                  "iterations %lld\n", cpu_trained, curve.main_cpu_trained, trained,
+      std::printf("trained_cpu_seconds %.2f\ntrained_seconds %.2f\niterations %lld\n", cpu_trained, trained,
                   static_cast<long long>(trainer.iteration()));
       return 0;
     }
@@ -224,8 +207,7 @@ int main(int argc, char** argv) {
                     last.samples_per_ray, static_cast<long long>(trainer.iteration()), cpu_trained,
                     final_eval.samples_per_pixel});
     const nerf::StepTimes& t = trainer.times();
-    std::printf("trained_cpu_seconds %.2f\ntrained_main_thread_cpu_seconds %.2f\n", cpu_trained,
-                curve.main_cpu_trained);
+    std::printf("trained_cpu_seconds %.2f\n", cpu_trained);
     std::printf("trained_seconds %.2f\niterations %lld\ntest_psnr %.3f\ntest_ssim %.4f\nrender_seconds_per_view %.3f\n"
                 "render_samples_per_pixel %.1f\noccupied_fraction %.4f\n",
                 trained, static_cast<long long>(trainer.iteration()), final_eval.psnr, final_eval.ssim,

@@ -6,7 +6,6 @@
 
 #include "commands.hpp"
 #include "demnerf/core/error.hpp"
-#include "demnerf/nerf/openmp_wait.hpp"
 #include "runtime/configure_runtime.hpp"
 
 namespace {
@@ -44,9 +43,6 @@ int main(int argc, char** argv) {
     return tokens.empty() ? 2 : 0;
   }
   const std::string name = tokens[0];
-  // Training's threads sleep between parallel regions instead of spinning (measured on the fox:
-  // demnerf/nerf/openmp_wait.hpp); the other commands keep libgomp's default.
-  if (name == "train") demnerf::nerf::reexecWithPassiveOpenMpWait(argv);
   const Command* command = nullptr;
   for (const Command& candidate : demnerf::cli::allCommands()) {
     if (name == candidate.name) command = &candidate;

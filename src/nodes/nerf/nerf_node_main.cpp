@@ -1,13 +1,9 @@
 #include <ros/ros.h>
 
-#include "demnerf/nerf/openmp_wait.hpp"
 #include "nodes/nerf/nerf_node.hpp"
 #include "runtime/configure_runtime.hpp"
 
 int main(int argc, char** argv) {
-  // Training threads sleep between parallel regions instead of spinning: the node shares its cores
-  // with the other nodes (demnerf/nerf/openmp_wait.hpp).
-  demnerf::nerf::reexecWithPassiveOpenMpWait(argv);
   ros::init(argc, argv, "nerf_node");
   ros::NodeHandle node;
   ros::NodeHandle private_node("~");
