@@ -76,6 +76,32 @@ core::ParticleCloud latticeBar(double h) {
   return cloud;
 }
 
+// The cuboid of the node tests (E 100 kPa) held by `clamp` and pushed on `load`; each test sets
+// the load's force.
+core::Scenario cuboidCantilever(const std::string& name, const core::Region& clamp, const core::Region& load) {
+  core::Scenario scenario;
+  scenario.name = name;
+  scenario.material.youngs_modulus = 1e5;
+  scenario.material.poisson_ratio = 0.3;
+  core::Fixture fixture;
+  fixture.name = "clamp";
+  fixture.region = clamp;
+  scenario.fixtures = {fixture};
+  core::Load push;
+  push.name = "push";
+  push.region = load;
+  scenario.loads = {push};
+  return scenario;
+}
+
+core::Region halfspace(double x, double normal_x) {
+  core::Region region;
+  region.type = core::Region::Type::kHalfspace;
+  region.center = Vector3d(x, 0, 0);
+  region.normal = Vector3d(normal_x, 0, 0);
+  return region;
+}
+
 }  // namespace
 
 TEST(ProductClouds, SampledTBarConvergesToTheSameEnergyWhicheverSamplerMadeIt) {
@@ -177,18 +203,9 @@ TEST(ProductClouds, TheFemFinishesAGentlePushOnACoarseSampledCuboid) {
     }
   };
   const core::TriangleMesh mesh = throughPly(demnerf::render::makeSceneObject(demnerf::render::SceneKind::kCuboid).mesh);
-  core::Scenario scenario;
-  scenario.name = "gentle_push";
-  scenario.material.youngs_modulus = 1e5;
-  scenario.material.poisson_ratio = 0.3;
-  core::Fixture clamp;
-  clamp.name = "clamp";
-  clamp.region = box(Vector3d(0, 0, 0), Vector3d(0.03, 1, 1));  // x <= 0.015 m
-  scenario.fixtures = {clamp};
-  core::Load push;
-  push.name = "push";
-  push.region = box(Vector3d(0.125, 0, 0), Vector3d(0.04, 1, 1));  // x >= 0.105 m
-  scenario.loads = {push};
+  // Clamped over x <= 0.015 m, pushed on x >= 0.105 m.
+  core::Scenario scenario = cuboidCantilever("gentle_push", box(Vector3d(0, 0, 0), Vector3d(0.03, 1, 1)),
+                                              box(Vector3d(0.125, 0, 0), Vector3d(0.04, 1, 1)));
   for (const auto& [spacing, seed] : {std::pair<double, std::uint64_t>{0.03, 1}, {0.03, 2}, {0.02, 1}, {0.02, 2}}) {
     SCOPED_TRACE("spacing " + std::to_string(spacing) + " m, seed " + std::to_string(seed));
     demnerf::geometry::SamplerConfig sampler;
@@ -222,22 +239,7 @@ TEST(ProductClouds, TheDemConvergesOnAPoissonCuboidWithAHalfspaceClamp) {
   // its answers on clouds of this one body spread over 0.019-0.027 m in max |u| (0.022 on this
   // cloud, 0.0196 on an aligned 5 mm mesh, the DEM 0.0178-0.0186); docs/dem_feature_grid.md.
   const core::TriangleMesh mesh = demnerf::render::makeSceneObject(demnerf::render::SceneKind::kCuboid).mesh;
-  core::Scenario scenario;
-  scenario.name = "halfspace_clamp";
-  scenario.material.youngs_modulus = 1e5;
-  scenario.material.poisson_ratio = 0.3;
-  core::Fixture clamp;
-  clamp.name = "clamp";
-  clamp.region.type = core::Region::Type::kHalfspace;
-  clamp.region.center = Vector3d(0.015, 0, 0);
-  clamp.region.normal = Vector3d(1, 0, 0);  // x <= 0.015 m
-  scenario.fixtures = {clamp};
-  core::Load tip;
-  tip.name = "tip";
-  tip.region.type = core::Region::Type::kHalfspace;
-  tip.region.center = Vector3d(0.105, 0, 0);
-  tip.region.normal = Vector3d(-1, 0, 0);  // x >= 0.105 m
-  scenario.loads = {tip};
+  core::Scenario scenario = cuboidCantilever("halfspace_clamp", halfspace(0.015, 1.0), halfspace(0.105, -1.0));
   const auto sample = [&mesh](demnerf::geometry::SamplingMethod method) {
     demnerf::geometry::SamplerConfig sampler;
     sampler.method = method;
