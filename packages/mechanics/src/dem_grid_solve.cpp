@@ -17,10 +17,6 @@ namespace demnerf::mechanics {
 using torch::Tensor;
 using torch_support::toTensor;
 
-// The grid Newton's quadrature: the particles' own volumes (midpoint rule) with a small share on
-// the surface particles (DemConfig::grid_surface_share), interior particles near a fixture or
-// load split into 2 x 2 x 2 sub-points of their cube (Newton has no jitter to catch a ramp
-// between a region and the first particle layer).
 namespace {
 
 // The fixtures whose region's whole volume is held (no held face): the cell quadrature splits the
@@ -44,6 +40,10 @@ bool sameRegions(const std::vector<core::Region>& a, const std::vector<core::Reg
 
 }  // namespace
 
+// The grid Newton's quadrature: the particles' own volumes (midpoint rule) with a small share on
+// the surface particles (DemConfig::grid_surface_share), interior particles near a fixture or
+// load split into 2 x 2 x 2 sub-points of their cube (Newton has no jitter to catch a ramp
+// between a region and the first particle layer).
 void DemSolver::Impl::buildGridQuadrature() {
   if (config.grid.quadrature == DemConfig::GridQuadrature::kCells) {
     // The cell quadrature depends on the cloud, the grid and the held volumes: built once per
