@@ -1,33 +1,26 @@
 #include "surface_flags.hpp"
 
 #include <cmath>
+#include <optional>
 #include <sstream>
 #include <vector>
 
 #include "command.hpp"
 #include "demnerf/core/dataset.hpp"
 #include "demnerf/core/error.hpp"
+#include "demnerf/geometry/object_isolation.hpp"
 
 namespace demnerf::cli {
 namespace {
 
 // "dx,dy,dz", a direction (any length but zero) for --solid-behind.
 Eigen::Vector3d direction(const std::string& text) {
-  std::stringstream stream(text);
-  std::string item;
-  std::vector<double> numbers;
-  try {
-    while (std::getline(stream, item, ',')) numbers.push_back(std::stod(item));
-  } catch (const std::exception&) {
-    numbers.clear();
-  }
-  Eigen::Vector3d d = Eigen::Vector3d::Zero();
-  if (numbers.size() == 3) d = Eigen::Vector3d(numbers[0], numbers[1], numbers[2]);
-  if (numbers.size() != 3 || !d.allFinite() || d.isZero()) {
+  const std::optional<std::vector<double>> numbers = geometry::parseNumberList(text);
+  if (!numbers || numbers->size() != 3 || Eigen::Vector3d::Map(numbers->data()).isZero()) {
     throw UsageError("option --solid-behind expects a direction dx,dy,dz (from the object towards the cameras, "
                      "not zero), got '" + text + "'");
   }
-  return d;
+  return Eigen::Vector3d::Map(numbers->data());
 }
 
 // The training cameras of the capture in DIR (poses and intrinsics only, no images): the split

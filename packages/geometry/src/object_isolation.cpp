@@ -59,24 +59,28 @@ std::string emptyBoxMessage(const DensityGrid& boxed, double peak, double level,
 
 }  // namespace
 
-Eigen::AlignedBox3d parseBox(const std::string& text) {
+std::optional<std::vector<double>> parseNumberList(const std::string& text) {
   std::vector<double> numbers;
   std::stringstream stream(text);
   std::string item;
-  bool parsed = true;
   while (std::getline(stream, item, ',')) {
     try {
       std::size_t used = 0;
       numbers.push_back(std::stod(item, &used));
-      parsed = parsed && item.find_first_not_of(" \t", used) == std::string::npos;
+      if (item.find_first_not_of(" \t", used) != std::string::npos || !std::isfinite(numbers.back())) return std::nullopt;
     } catch (const std::exception&) {
-      parsed = false;
+      return std::nullopt;
     }
   }
-  const bool finite = std::all_of(numbers.begin(), numbers.end(), [](double v) { return std::isfinite(v); });
-  if (!parsed || numbers.size() != 6 || !finite) {
+  return numbers;
+}
+
+Eigen::AlignedBox3d parseBox(const std::string& text) {
+  const std::optional<std::vector<double>> parsed = parseNumberList(text);
+  if (!parsed || parsed->size() != 6) {
     throw core::Error("box '" + text + "' must be six numbers xmin,ymin,zmin,xmax,ymax,zmax (the model's frame)");
   }
+  const std::vector<double>& numbers = *parsed;
   const Eigen::Vector3d low(numbers[0], numbers[1], numbers[2]), high(numbers[3], numbers[4], numbers[5]);
   if (!(low.array() < high.array()).all()) {
     throw core::Error("box '" + text + "' must have xmin < xmax, ymin < ymax and zmin < zmax");

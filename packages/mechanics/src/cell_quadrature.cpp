@@ -8,6 +8,7 @@
 #include <limits>
 
 #include "demnerf/core/error.hpp"
+#include "demnerf/mechanics/dirichlet_lift.hpp"
 #include "demnerf/mechanics/particle_inside_test.hpp"
 #include "parallel_for.hpp"
 
@@ -28,19 +29,6 @@ void gaussRule(int n, std::vector<double>& t, std::vector<double>& w) {
       t = {0.5 - a, 0.5, 0.5 + a}, w = {5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0};
     }
   }
-}
-
-// Signed distance to a region (negative inside): exact for spheres and halfspaces, and for boxes.
-double regionSignedDistance(const core::Region& region, const Eigen::Vector3d& x) {
-  switch (region.type) {
-    case core::Region::Type::kBox: {
-      const Eigen::Vector3d q = (x - region.center).cwiseAbs() - 0.5 * region.size;
-      return q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0);
-    }
-    case core::Region::Type::kSphere: return (x - region.center).norm() - region.radius;
-    case core::Region::Type::kHalfspace: return (x - region.center).dot(region.normal.normalized());
-  }
-  return 0.0;
 }
 
 class CellIntegrator {

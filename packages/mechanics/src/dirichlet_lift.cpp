@@ -1,5 +1,6 @@
 #include "demnerf/mechanics/dirichlet_lift.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "demnerf/mechanics/held_face.hpp"
@@ -41,8 +42,19 @@ double regionDistanceAndGradient(const core::Region& region, const Eigen::Vector
 }  // namespace
 
 double regionDistance(const core::Region& region, const Eigen::Vector3d& x) {
-  Eigen::Vector3d unused;
-  return regionDistanceAndGradient(region, x, unused);
+  return std::max(0.0, regionSignedDistance(region, x));
+}
+
+double regionSignedDistance(const core::Region& region, const Eigen::Vector3d& x) {
+  switch (region.type) {
+    case core::Region::Type::kBox: {
+      const Eigen::Vector3d q = (x - region.center).cwiseAbs() - 0.5 * region.size;
+      return q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0);
+    }
+    case core::Region::Type::kSphere: return (x - region.center).norm() - region.radius;
+    case core::Region::Type::kHalfspace: return (x - region.center).dot(region.normal.normalized());
+  }
+  return 0.0;
 }
 
 void dirichletLiftAt(const core::Scenario& scenario, const Eigen::Vector3d& x, double length, Eigen::Vector3d& g,

@@ -187,16 +187,15 @@ bool FemSolver::Impl::newton(double scale) {
 // residual, or while the step itself vanishes (the next iteration then stops on the vanishing update,
 // as for any round-off bound load).
 bool FemSolver::Impl::residualFalls(const Eigen::VectorXd& du, double scale, double res) {
-  const Eigen::VectorXd trial = u + du;
-  if (!std::isfinite(energy(trial, scale))) return false;
+  if (du.norm() <= config.displacement_tolerance * u.norm()) return true;
   Eigen::VectorXd R, Kdu_c;
   double internal_norm = 0.0;
   const Eigen::VectorXd none = Eigen::VectorXd::Zero(u.size());
-  assemble(trial, scale, none, false, R, Kdu_c, internal_norm);
+  if (!std::isfinite(assemble(u + du, scale, none, false, R, Kdu_c, internal_norm))) return false;
   double trial_res = 0.0;
   for (int d = 0; d < static_cast<int>(u.size()); ++d)
     if (free_index[d] >= 0) trial_res += R(d) * R(d);
-  return std::sqrt(trial_res) < 0.5 * res || du.norm() <= config.displacement_tolerance * u.norm();
+  return std::sqrt(trial_res) < 0.5 * res;
 }
 
 const FemResult& FemSolver::solve() {

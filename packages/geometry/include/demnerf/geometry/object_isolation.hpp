@@ -6,6 +6,7 @@
 // surface comes out open.
 
 #include <Eigen/Geometry>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -29,6 +30,10 @@ struct IsolationReport {
   std::size_t nodes_dropped = 0;         ///< inside nodes of the dropped pieces
   double peak = 0.0;                     ///< largest value of the field the surface is cut from
 };
+
+/// The finite numbers of a comma-separated list ("1.5,-2,0"); nullopt when an item is not a whole
+/// number or is not finite (the CLI's --box and --solid-behind).
+std::optional<std::vector<double>> parseNumberList(const std::string& text);
 
 /// Parses "xmin,ymin,zmin,xmax,ymax,zmax" (the CLI's --box). Throws core::Error naming the
 /// text unless it has six finite numbers with min < max on every axis.

@@ -22,6 +22,10 @@ struct DirichletLift {
 /// Distance from a point to a region (0 inside).
 double regionDistance(const core::Region& region, const Eigen::Vector3d& x);
 
+/// Signed distance from a point to a region's boundary (negative inside; exact for boxes, spheres
+/// and halfspaces). regionDistance is its positive part.
+double regionSignedDistance(const core::Region& region, const Eigen::Vector3d& x);
+
 /// g, grad g, D, grad D at one point, with analytic gradients (one-sided 0 inside a fixture,
 /// where the distance is flat). Cheap enough to call for every quadrature point every step.
 /// `held` (one per fixture, heldFaces): a fixture with a valid face has D = the distance to that
