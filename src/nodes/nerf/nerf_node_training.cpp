@@ -130,7 +130,7 @@ void NerfNode::publishModel(std::shared_ptr<const demnerf::nerf::NerfModel> mode
   try {
     demnerf::core::TriangleMesh mesh;
     const demnerf::core::ParticleCloud cloud =
-        particlesFromModel(*model, config_.extraction, config_.sampling, &mesh);
+        particlesFromModel(*model, extractionConfig(), config_.sampling, &mesh);
     std_msgs::Header header;
     header.stamp = ros::Time::now();
     header.frame_id = config_.world_frame;
