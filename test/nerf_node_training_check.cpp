@@ -1,5 +1,6 @@
 // rostest node: nerf_node trains on a replayed scene and publishes a usable particle cloud.
 
+#include <dem_nerf/ExtractParticles.h>
 #include <dem_nerf/ModelInfo.h>
 #include <gtest/gtest.h>
 #include <ros/ros.h>
@@ -62,6 +63,11 @@ TEST(NerfNodeTraining, TrainsAndPublishesParticlesInsideTheScene) {
   // magnitude only; mesh accuracy is checked on the T-bar by the geometry benchmarks.
   EXPECT_GT(volume, 0.5 * 1.25e-3);
   EXPECT_LT(volume, 4.0 * 1.25e-3);
+  // ~extract answers with the same extraction, carved against the keyframes (~extraction/solid_views).
+  dem_nerf::ExtractParticles extract;
+  ASSERT_TRUE(ros::service::call("/nerf_node/extract", extract));
+  EXPECT_TRUE(extract.response.ok) << extract.response.message;
+  EXPECT_GT(extract.response.cloud.width * extract.response.cloud.height, 50u);
 }
 
 int main(int argc, char** argv) {

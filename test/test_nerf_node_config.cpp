@@ -51,6 +51,7 @@ void expectSameSurface(const dem_nerf::SurfaceConfig& a, const dem_nerf::Surface
   EXPECT_EQ(a.isolation.max_second_piece_fraction, b.isolation.max_second_piece_fraction);
   EXPECT_EQ(a.mesh.solid.radius, b.mesh.solid.radius);
   EXPECT_EQ(a.mesh.solid.behind, b.mesh.solid.behind);
+  EXPECT_EQ(a.solid_views, b.solid_views);
   ASSERT_EQ(a.box.has_value(), b.box.has_value());
   if (a.box) EXPECT_TRUE(a.box->isApprox(*b.box));
 }
@@ -82,6 +83,38 @@ TEST(NerfNodeConfig, ExtractionNamespaceIsDemnerfExtractsFlags) {
   EXPECT_DOUBLE_EQ(config.extraction.box->max().z(), 0.3);
   EXPECT_EQ(config.extraction.mesh.solid.radius, 0.08);
   EXPECT_EQ(config.extraction.mesh.solid.behind, Eigen::Vector3d(0.9, -0.4, 0.0));
+}
+
+TEST(NerfNodeConfig, SolidViewsCarvesWithTheKeyframesLater) {
+  const NerfNodeConfig config = NerfNodeConfig::fromParameters(
+      ParameterMap{{"extraction", keys({{"solid_radius", 0.16}, {"solid_views", 4}})}});
+  EXPECT_EQ(config.extraction.solid_views, 4);
+  // The cameras are the keyframes, attached at extraction (withTrainingCameras; test_nerf_node_carving).
+  EXPECT_TRUE(config.extraction.mesh.solid.cameras.empty());
+  EXPECT_EQ(NerfNodeConfig::fromParameters(ParameterMap{}).extraction.solid_views, 0);  // off, as without --solid-cameras
+}
+
+TEST(NerfNodeConfig, SolidViewsNeedsARadiusNoDirectionAndKeptKeyframes) {
+  EXPECT_NE(refusal(ParameterMap{{"extraction", keys({{"solid_views", 4}})}})
+                .find("~extraction: 'solid_views' needs 'solid_radius' > 0"),
+            std::string::npos);
+  EXPECT_NE(refusal(ParameterMap{{"extraction", keys({{"solid_radius", 0.1}, {"solid_views", 4},
+                                                      {"solid_behind", list({1, 0, 0})}})}})
+                .find("'solid_behind' are alternatives"),
+            std::string::npos);
+  EXPECT_NE(refusal(ParameterMap{{"extraction", keys({{"solid_radius", 0.1}, {"solid_views", -1}})}})
+                .find("'solid_views' must be an integer in [0,"),
+            std::string::npos);
+  EXPECT_NE(refusal(ParameterMap{{"max_frames", 12}, {"extraction", keys({{"solid_radius", 0.1}, {"solid_views", 13}})}})
+                .find("~extraction/solid_views (13) must not exceed ~max_frames (12)"),
+            std::string::npos);
+  // The command line refuses the same pair before it reads any dataset.
+  try {
+    demnerf::cli::surfaceFlags(demnerf::cli::Arguments({"--solid-cameras", "/no/such/capture", "--solid-views", "4"}, {}));
+    ADD_FAILURE() << "--solid-cameras without --solid-radius was accepted";
+  } catch (const demnerf::cli::UsageError& error) {
+    EXPECT_NE(std::string(error.what()).find("needs --solid-radius R > 0"), std::string::npos) << error.what();
+  }
 }
 
 TEST(NerfNodeConfig, NerfNamespaceGoesOverTheFileAndSamplingIsItsOwn) {

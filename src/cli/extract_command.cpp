@@ -52,7 +52,7 @@ Figures runExtract(const Arguments& arguments) {
                  {"solid_radius", config.mesh.solid.radius},
                  {"solid_behind", {config.mesh.solid.behind.x(), config.mesh.solid.behind.y(), config.mesh.solid.behind.z()}},
                  {"solid_cameras", config.mesh.solid.cameras.size()},
-                 {"solid_views", config.mesh.solid.min_views},
+                 {"solid_views", config.solid_views},
                  {"solid_hidden_nodes", result.solid.hidden_nodes},
                  {"solid_unseen_nodes", result.solid.unseen_nodes},
                  {"solid_radius_cells", result.solid.radius_cells},

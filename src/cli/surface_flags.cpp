@@ -23,21 +23,41 @@ Eigen::Vector3d direction(const std::string& text) {
   return Eigen::Vector3d::Map(numbers->data());
 }
 
-// The training cameras of the capture in DIR (poses and intrinsics only, no images): the split
+// The training frames of the capture in DIR (poses and intrinsics only, no images): the split
 // `demnerf train --data DIR` fits, so carving trusts only views the model learnt from.
-std::vector<geometry::ViewCamera> captureCameras(const std::string& directory) {
+std::vector<core::Frame> trainingFrames(const std::string& directory) {
   core::DatasetOptions options;
   options.load_images = false;
-  core::Dataset dataset;
   try {
-    dataset = core::loadDataset(directory, options);
+    return core::loadDataset(directory, options).train;
   } catch (const core::Error& error) {
     throw UsageError(std::string("option --solid-cameras expects the capture's dataset folder: ") + error.what());
   }
-  std::vector<geometry::ViewCamera> cameras;
-  for (const core::Frame& frame : dataset.train) cameras.push_back({frame.camera, frame.world_from_camera});
-  if (cameras.empty()) throw UsageError("option --solid-cameras: '" + directory + "' has no training frames");
-  return cameras;
+}
+
+// --solid-cameras DIR [--solid-views N]: space carving against the capture's training cameras,
+// attached as nerf_node attaches its keyframes (dem_nerf::withTrainingCameras).
+void carvingFlags(const Arguments& arguments, dem_nerf::SurfaceConfig* config) {
+  if (!arguments.has("solid-cameras")) {
+    if (arguments.has("solid-views"))
+      throw UsageError("option --solid-views counts the cameras of --solid-cameras DIR; give that too");
+    return;
+  }
+  if (arguments.has("solid-behind"))
+    throw UsageError("options --solid-cameras and --solid-behind are alternatives; give one (--solid-cameras is tighter)");
+  config->solid_views = arguments.integer("solid-views", 1);
+  if (config->solid_views < 1) throw UsageError("option --solid-views expects a count >= 1 (1: the visual hull)");
+  if (config->mesh.solid.radius == 0.0) {
+    throw UsageError("option --solid-cameras needs --solid-radius R > 0 as well: the closing shuts the slits grazing "
+                     "views leave in the carved fill (the fox: --solid-radius 0.16 --solid-views 4)");
+  }
+  const std::string directory = arguments.text("solid-cameras");
+  try {
+    *config = dem_nerf::withTrainingCameras(*config, trainingFrames(directory),
+                                             "the training split of '" + directory + "'");
+  } catch (const core::Error& error) {
+    throw UsageError(std::string("option --solid-views: ") + error.what());
+  }
 }
 
 }  // namespace
@@ -81,15 +101,7 @@ dem_nerf::SurfaceConfig surfaceFlags(const Arguments& arguments) {
   if (!(config.mesh.solid.radius >= 0.0) || !std::isfinite(config.mesh.solid.radius))
     throw UsageError("option --solid-radius expects a length >= 0 in the scene's units (0: no closing)");
   if (arguments.has("solid-behind")) config.mesh.solid.behind = direction(arguments.text("solid-behind"));
-  if (arguments.has("solid-cameras")) {
-    if (arguments.has("solid-behind"))
-      throw UsageError("options --solid-cameras and --solid-behind are alternatives; give one (--solid-cameras is tighter)");
-    config.mesh.solid.cameras = captureCameras(arguments.text("solid-cameras"));
-  }
-  config.mesh.solid.min_views = arguments.integer("solid-views", config.mesh.solid.min_views);
-  if (config.mesh.solid.min_views < 1) throw UsageError("option --solid-views expects a count >= 1 (1: the visual hull)");
-  if (arguments.has("solid-views") && !arguments.has("solid-cameras"))
-    throw UsageError("option --solid-views counts the cameras of --solid-cameras DIR; give that too");
+  carvingFlags(arguments, &config);
   return config;
 }
 
@@ -104,8 +116,8 @@ std::string surfaceFlagsUsage() {
        << " (refuse a box whose second piece has this fraction of the largest's size)] "
        << "[--solid-radius " << defaults.mesh.solid.radius
        << " (> 0: close tunnels narrower than about twice this, in the scene's units, and fill cavities)] "
-       << "[--solid-cameras DIR (the capture's dataset: fill what none of its training cameras saw as empty; "
-       << "--solid-views N: what fewer than N saw) | "
+       << "[--solid-cameras DIR (with --solid-radius; the capture's dataset: fill what none of its training cameras "
+       << "saw as empty; --solid-views N: what fewer than N saw) | "
        << "--solid-behind dx,dy,dz (towards the cameras of a one-sided capture: fill what the body hides)]";
   return text.str();
 }

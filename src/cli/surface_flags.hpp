@@ -15,7 +15,8 @@ std::set<std::string> surfaceFlagNames();
 
 /// --resolution, --surface, --opacity, --threshold, --max-faces, --smooth, --box,
 /// --max-second-piece, --solid-radius, --solid-behind, --solid-cameras (loads the dataset's
-/// training cameras) and --solid-views over SurfaceConfig's defaults; UsageError naming the flag when one is bad.
+/// training cameras; needs --solid-radius) and --solid-views (SurfaceConfig::solid_views, 1 with
+/// --solid-cameras alone) over SurfaceConfig's defaults; UsageError naming the flag when one is bad.
 /// --threshold alone means a density surface (its meaning before opacity surfaces existed).
 dem_nerf::SurfaceConfig surfaceFlags(const Arguments& arguments);
 

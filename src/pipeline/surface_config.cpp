@@ -68,8 +68,35 @@ SurfaceConfig parseSurfaceConfig(const std::string& yaml_text, const std::string
                 {"box", boxOf(&c.box)},
                 {"max_second_piece", numberAtLeast(&c.isolation.max_second_piece_fraction, 0.0, true)},
                 {"solid_radius", numberAtLeast(&c.mesh.solid.radius, 0.0)},
-                {"solid_behind", directionOf(&c.mesh.solid.behind)}});
+                {"solid_behind", directionOf(&c.mesh.solid.behind)},
+                {"solid_views", integerIn(&c.solid_views, 0, no_limit)}});
+  if (c.solid_views > 0 && c.mesh.solid.radius == 0.0) {
+    throw demnerf::core::Error(source + ": 'solid_views' needs 'solid_radius' > 0 as well: the closing shuts the "
+                               "slits grazing views leave in the carved fill (the fox: solid_radius 0.16, "
+                               "solid_views 4, in the scene's units)");
+  }
+  if (c.solid_views > 0 && c.mesh.solid.behind != Eigen::Vector3d::Zero()) {
+    throw demnerf::core::Error(source + ": 'solid_views' (space carving against the training cameras) and "
+                               "'solid_behind' are alternatives; give one (solid_views is the tighter fill)");
+  }
   return c;
+}
+
+SurfaceConfig withTrainingCameras(SurfaceConfig config, const std::vector<demnerf::core::Frame>& frames,
+                                  const std::string& origin) {
+  if (config.solid_views <= 0) return config;
+  const std::string views = "space carving (solid_views " + std::to_string(config.solid_views) + ")";
+  if (frames.empty())
+    throw demnerf::core::Error(views + " needs the cameras the model trained on, and there are none in " + origin);
+  if (static_cast<std::size_t>(config.solid_views) > frames.size()) {
+    throw demnerf::core::Error(views + " needs that many of the cameras the model trained on, and there are only " +
+                               std::to_string(frames.size()) + " in " + origin + ": give at most " +
+                               std::to_string(frames.size()));
+  }
+  config.mesh.solid.cameras.clear();
+  for (const demnerf::core::Frame& frame : frames) config.mesh.solid.cameras.push_back({frame.camera, frame.world_from_camera});
+  config.mesh.solid.min_views = config.solid_views;
+  return config;
 }
 
 }  // namespace dem_nerf

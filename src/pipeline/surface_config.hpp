@@ -7,7 +7,9 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
+#include "demnerf/core/dataset.hpp"
 #include "demnerf/geometry/mesh_from_density.hpp"
 #include "demnerf/geometry/object_isolation.hpp"
 
@@ -24,6 +26,12 @@ struct SurfaceConfig {
   /// meshed, closed at the box's faces (unset: the whole model box, for isolated objects).
   std::optional<Eigen::AlignedBox3d> box;
   demnerf::geometry::IsolationConfig isolation;
+  /// Space carving against the capture's training cameras: 0 off; N >= 1 fills what fewer than N
+  /// of them saw in plain view as empty (1: the visual hull; the fox takes 4, so its thin ears keep
+  /// a back). Needs mesh.solid.radius > 0, which shuts the slits grazing views leave, and excludes
+  /// mesh.solid.behind. The cameras come from whoever trained the model (withTrainingCameras):
+  /// `demnerf extract --solid-cameras DIR` the dataset's training split, nerf_node its keyframes.
+  int solid_views = 0;
 
   static demnerf::geometry::MeshExtractionConfig renderedSurface() {
     demnerf::geometry::MeshExtractionConfig mesh;
@@ -36,9 +44,17 @@ struct SurfaceConfig {
 
 /// The settings in YAML text over `base`; keys: resolution, surface (opacity | density), opacity,
 /// threshold, max_faces, smoothing, box ([xmin, ymin, zmin, xmax, ymax, zmax]), max_second_piece,
-/// solid_radius (>= 0, the scene's units), solid_behind ([dx, dy, dz] towards the cameras).
-/// Throws core::Error naming `source` and the key for unknown keys, wrong types and values out of
-/// range.
+/// solid_radius (>= 0, the scene's units), solid_behind ([dx, dy, dz] towards the cameras),
+/// solid_views (>= 0; > 0 needs solid_radius > 0 and no solid_behind). Throws core::Error naming
+/// `source` and the key for unknown keys, wrong types, values out of range and such pairs.
 SurfaceConfig parseSurfaceConfig(const std::string& yaml_text, const std::string& source, SurfaceConfig base = {});
+
+/// `config` with the cameras its space carving needs: for solid_views > 0, mesh.solid.cameras
+/// gets the intrinsics and poses of `frames` (the ones the model trained on, in its scene frame)
+/// and mesh.solid.min_views solid_views; for 0, config as it is. `origin` names the frames in
+/// the errors: core::Error when there are none, or fewer than solid_views (no node could then
+/// count as seen empty, and the carving would fill the whole box).
+SurfaceConfig withTrainingCameras(SurfaceConfig config, const std::vector<demnerf::core::Frame>& frames,
+                                  const std::string& origin);
 
 }  // namespace dem_nerf

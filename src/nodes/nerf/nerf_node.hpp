@@ -55,6 +55,9 @@ class NerfNode {
   void fillDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
   /// The trained model, or a snapshot of the one in training; null before training starts.
   std::shared_ptr<const demnerf::nerf::NerfModel> currentModel();
+  /// ~extraction with the keyframes' cameras attached when it carves (~extraction/solid_views):
+  /// what `demnerf extract --solid-cameras DIR` attaches from the capture's training split.
+  SurfaceConfig extractionConfig();
 
   bool render(dem_nerf::RenderView::Request& request, dem_nerf::RenderView::Response& response);
   bool extract(dem_nerf::ExtractParticles::Request& request, dem_nerf::ExtractParticles::Response& response);

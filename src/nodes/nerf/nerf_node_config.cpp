@@ -46,6 +46,12 @@ NerfNodeConfig read(const Node& node) {
   if (config.min_frames > config.max_frames) {
     throw demnerf::core::Error("parameter ~min_frames must not exceed ~max_frames");
   }
+  if (config.extraction.solid_views > config.max_frames) {
+    // Carving counts views among the keyframes (withTrainingCameras), of which at most ~max_frames are kept.
+    throw demnerf::core::Error("parameter ~extraction/solid_views (" + std::to_string(config.extraction.solid_views) +
+                               ") must not exceed ~max_frames (" + std::to_string(config.max_frames) +
+                               "): space carving counts views among the keyframes kept");
+  }
   return config;
 }
 

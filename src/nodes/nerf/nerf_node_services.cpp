@@ -57,7 +57,7 @@ bool NerfNode::extract(dem_nerf::ExtractParticles::Request& request, dem_nerf::E
     demnerf::geometry::SamplerConfig sampling = config_.sampling;  // ~sampling, unless the request says
     if (!request.sampler.empty()) sampling.method = demnerf::geometry::parseSamplingMethod(request.sampler);
     if (request.spacing > 0) sampling.spacing = request.spacing;
-    const demnerf::core::ParticleCloud cloud = particlesFromModel(*model, config_.extraction, sampling);
+    const demnerf::core::ParticleCloud cloud = particlesFromModel(*model, extractionConfig(), sampling);
     std_msgs::Header header;
     header.stamp = ros::Time::now();
     header.frame_id = config_.world_frame;
@@ -74,6 +74,17 @@ bool NerfNode::extract(dem_nerf::ExtractParticles::Request& request, dem_nerf::E
     rejections_.count("extract", response.message);
   }
   return true;
+}
+
+SurfaceConfig NerfNode::extractionConfig() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  try {
+    return withTrainingCameras(config_.extraction, keyframes_, "nerf_node's keyframes");
+  } catch (const demnerf::core::Error& error) {
+    throw demnerf::core::Error(std::string("~extraction: ") + error.what() +
+                               " (the keyframes are the images this session trains on; a model from ~load brings no "
+                               "cameras; ~extraction/solid_views 0 extracts without carving)");
+  }
 }
 
 bool NerfNode::save(dem_nerf::SaveModel::Request& request, dem_nerf::SaveModel::Response& response) {

@@ -129,14 +129,17 @@ void NerfNode::publishModel(std::shared_ptr<const demnerf::nerf::NerfModel> mode
   model_publisher_.publish(info);
   try {
     demnerf::core::TriangleMesh mesh;
-    const demnerf::core::ParticleCloud cloud =
-        particlesFromModel(*model, config_.extraction, config_.sampling, &mesh);
+    const SurfaceConfig extraction = extractionConfig();
+    const demnerf::core::ParticleCloud cloud = particlesFromModel(*model, extraction, config_.sampling, &mesh);
     std_msgs::Header header;
     header.stamp = ros::Time::now();
     header.frame_id = config_.world_frame;
     particles_publisher_.publish(toPointCloud2(cloud, header));
     mesh_publisher_.publish(meshMarker(mesh, config_.world_frame));
-    ROS_INFO("nerf_node: published %zu particles and a mesh of %zu faces", cloud.size(), mesh.faces.size());
+    const std::size_t carved = extraction.mesh.solid.cameras.size();
+    const std::string note = carved ? ", carved against " + std::to_string(carved) + " keyframes" : "";
+    ROS_INFO("nerf_node: published %zu particles and a mesh of %zu faces%s", cloud.size(), mesh.faces.size(),
+             note.c_str());
   } catch (const std::exception& error) {  // core::Error, torch or CGAL errors on an odd model
     reportError("extract", std::string("no particles from the trained model: ") + error.what());
   }
