@@ -43,6 +43,12 @@ if(NOT COMMAND demnerf_mechanics_matrix_bench)
                                     ${DEMNERF_ROOT_DIR}/bench/mechanics_matrix_nerf.cpp
                                     ${DEMNERF_ROOT_DIR}/bench/mechanics_matrix_report.cpp)
     target_link_libraries(mechanics_matrix PRIVATE demnerf_mechanics demnerf_geometry demnerf_render demnerf_nerf)
+    # mechanics_matrix_merge: one report from the CSVs of several runs (columns run separately).
+    add_executable(mechanics_matrix_merge ${DEMNERF_ROOT_DIR}/bench/mechanics_matrix_merge.cpp
+                                          ${DEMNERF_ROOT_DIR}/bench/mechanics_matrix_csv.cpp
+                                          ${DEMNERF_ROOT_DIR}/bench/mechanics_matrix_report.cpp)
+    target_link_libraries(mechanics_matrix_merge PRIVATE demnerf_core)  # OpenCV comes with core
+    set_target_properties(mechanics_matrix_merge PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin/bench")
     target_compile_definitions(mechanics_matrix PRIVATE DEMNERF_ROOT="${DEMNERF_ROOT_DIR}")
     set_target_properties(mechanics_matrix PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin/bench")
     # mechanics_mlp: the paper's DEM (MLP alone) on one matrix cloud, with its error-vs-time curve.

@@ -56,7 +56,14 @@ struct MatrixReport {
   std::vector<ConvergenceRow> convergence;
 };
 
+/// Prefixes the sanity text of a mesh-convergence line in the CSV when the check failed.
+inline const std::string kSanityFailed = "CHECK FAILED: ";
+
 void writeCsv(const MatrixReport& report, const std::string& path);
+/// The rows and mesh-convergence rows of a CSV that writeCsv wrote (title and solvers left empty;
+/// a convergence row's coarse dofs are not in the CSV: 0, its seconds all in fine_seconds).
+/// core::Error naming the file and line on a malformed line.
+MatrixReport readCsv(const std::string& path);
 std::string markdown(const MatrixReport& report);
 void writeHeatMap(const MatrixReport& report, const std::string& path);
 

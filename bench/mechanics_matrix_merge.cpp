@@ -1,0 +1,101 @@
+// mechanics_matrix_merge: one solver-matrix report (CSV, Markdown, heat map) from the CSVs of
+// several mechanics_matrix runs, e.g. a column per solver run at different times.
+//
+//   mechanics_matrix_merge out=DIR [title=TEXT] [solvers=fem,dem,...] a.csv b.csv ...
+//
+// Rows are keyed by scenario, source, sampler and spacing; a solver's cell in a later CSV replaces
+// the same solver's cell of that cloud in an earlier one, and a later mesh-convergence row the
+// earlier one of its scenario and source. Columns keep the order of solvers=, else of first
+// appearance. The report is always titled PARTIAL: a merge does not prove every cell was run.
+
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "demnerf/core/error.hpp"
+#include "mechanics_matrix_report.hpp"
+
+namespace bench = demnerf::bench;
+
+namespace {
+
+std::vector<std::string> splitList(const std::string& text) {
+  std::vector<std::string> items;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    const std::size_t end = std::min(text.find(',', start), text.size());
+    if (end > start) items.push_back(text.substr(start, end - start));
+    start = end + 1;
+  }
+  return items;
+}
+
+void addSolver(bench::MatrixReport& report, const std::string& solver) {
+  for (const std::string& s : report.solvers)
+    if (s == solver) return;
+  report.solvers.push_back(solver);
+}
+
+void mergeRow(bench::MatrixReport& into, const bench::MatrixRow& row) {
+  for (bench::MatrixRow& mine : into.rows) {
+    if (mine.scenario != row.scenario || mine.source != row.source || mine.sampler != row.sampler ||
+        mine.spacing_divisor != row.spacing_divisor)
+      continue;
+    for (const bench::MatrixCell& cell : row.cells) {
+      bool replaced = false;
+      for (bench::MatrixCell& old : mine.cells)
+        if (old.solver == cell.solver) old = cell, replaced = true;
+      if (!replaced) mine.cells.push_back(cell);
+      addSolver(into, cell.solver);
+    }
+    if (!row.cloud_error.empty()) mine.cloud_error = row.cloud_error;
+    return;
+  }
+  into.rows.push_back(row);
+  for (const bench::MatrixCell& cell : row.cells) addSolver(into, cell.solver);
+}
+
+void mergeConvergence(bench::MatrixReport& into, const bench::ConvergenceRow& row) {
+  for (bench::ConvergenceRow& mine : into.convergence)
+    if (mine.scenario == row.scenario && mine.source == row.source) return void(mine = row);
+  into.convergence.push_back(row);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    std::string out, title = "mechanics_matrix_merge", solvers;
+    std::vector<std::string> inputs;
+    for (int i = 1; i < argc; ++i) {
+      const std::string arg = argv[i];
+      if (arg.rfind("out=", 0) == 0) out = arg.substr(4);
+      else if (arg.rfind("title=", 0) == 0) title = arg.substr(6);
+      else if (arg.rfind("solvers=", 0) == 0) solvers = arg.substr(8);
+      else inputs.push_back(arg);
+    }
+    if (out.empty() || inputs.empty())
+      throw demnerf::core::Error("usage: mechanics_matrix_merge out=DIR [title=TEXT] [solvers=a,b] FILE.csv ...");
+    bench::MatrixReport report;
+    report.title = title;
+    report.partial = true;
+    report.solvers = splitList(solvers);
+    for (const std::string& input : inputs) {
+      const bench::MatrixReport part = bench::readCsv(input);
+      for (const bench::MatrixRow& row : part.rows) mergeRow(report, row);
+      for (const bench::ConvergenceRow& row : part.convergence) mergeConvergence(report, row);
+    }
+    std::filesystem::create_directories(out);
+    bench::writeCsv(report, out + "/mechanics_matrix.csv");
+    std::ofstream(out + "/mechanics_matrix.md") << bench::markdown(report);
+    bench::writeHeatMap(report, out + "/mechanics_matrix.png");
+    std::cout << report.rows.size() << " clouds x " << report.solvers.size() << " solvers from " << inputs.size()
+              << " CSVs -> " << out << "/mechanics_matrix.{csv,md,png}\n";
+    return 0;
+  } catch (const std::exception& error) {
+    std::cerr << "mechanics_matrix_merge: " << error.what() << "\n";
+    return 1;
+  }
+}
