@@ -13,7 +13,6 @@
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/make_mesh_3.h>
 
-#include <algorithm>
 #include <cmath>
 #include <map>
 #include <string>
@@ -70,21 +69,6 @@ void checkClosed(const core::TriangleMesh& surface) {
                       "make the surface a consistently oriented two-manifold or use the voxel mesher");
 }
 
-/// The asked cell, or 1/20 of the surface's bounding-box diagonal.
-double meshCell(const core::TriangleMesh& surface, const CgalMeshConfig& config) {
-  if (config.cell > 0) return config.cell;
-  if (surface.vertices.empty()) throw core::Error("tetrahedral mesh: the surface mesh is empty");
-  Eigen::Vector3d lo = surface.vertices[0], hi = lo;
-  for (const auto& v : surface.vertices) {
-    if (!v.allFinite()) throw core::Error("tetrahedral mesh: the surface has a vertex that is not finite");
-    lo = lo.cwiseMin(v);
-    hi = hi.cwiseMax(v);
-  }
-  const double diagonal = (hi - lo).norm();
-  if (!(diagonal > 0)) throw core::Error("tetrahedral mesh: the surface has zero extent");
-  return diagonal / 20.0;
-}
-
 }  // namespace
 
 bool creasesAreNoise(const core::TriangleMesh& surface, const CgalMeshConfig& config) {
@@ -113,7 +97,15 @@ TetMesh cgalMeshFromSurface(const core::TriangleMesh& surface, const CgalMeshCon
                       std::to_string(config.facet_distance));
   checkClosed(surface);
 
-  const double cell = meshCell(surface, config);
+  Eigen::Vector3d lo = surface.vertices[0], hi = lo;
+  for (const auto& v : surface.vertices) {
+    if (!v.allFinite()) throw core::Error("tetrahedral mesh: the surface has a vertex that is not finite");
+    lo = lo.cwiseMin(v);
+    hi = hi.cwiseMax(v);
+  }
+  const double diagonal = (hi - lo).norm();
+  if (!(diagonal > 0)) throw core::Error("tetrahedral mesh: the surface has zero extent");
+  const double cell = config.cell > 0 ? config.cell : diagonal / 20.0;
   const double facet_distance = config.facet_distance > 0 ? config.facet_distance : cell / 10.0;
 
   std::vector<Kernel::Point_3> points;
