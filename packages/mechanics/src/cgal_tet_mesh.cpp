@@ -69,6 +69,17 @@ void checkClosed(const core::TriangleMesh& surface) {
                       "make the surface a consistently oriented two-manifold or use the voxel mesher");
 }
 
+void checkConfig(const CgalMeshConfig& config) {
+  if (config.order != 1 && config.order != 2)
+    throw core::Error("tetrahedral mesh: order must be 1 (TET4) or 2 (TET10), got " + std::to_string(config.order));
+  if (!(config.cell >= 0.0) || !std::isfinite(config.cell))
+    throw core::Error("tetrahedral mesh: the cell size must be a positive length in metres (0: automatic), got " +
+                      std::to_string(config.cell));
+  if (!(config.facet_distance >= 0.0) || !std::isfinite(config.facet_distance))
+    throw core::Error("tetrahedral mesh: facet_distance must be a positive length in metres (0: cell / 10), got " +
+                      std::to_string(config.facet_distance));
+}
+
 }  // namespace
 
 bool creasesAreNoise(const core::TriangleMesh& surface, const CgalMeshConfig& config) {
@@ -87,14 +98,7 @@ bool creasesAreNoise(const core::TriangleMesh& surface, const CgalMeshConfig& co
 }
 
 TetMesh cgalMeshFromSurface(const core::TriangleMesh& surface, const CgalMeshConfig& config) {
-  if (config.order != 1 && config.order != 2)
-    throw core::Error("tetrahedral mesh: order must be 1 (TET4) or 2 (TET10), got " + std::to_string(config.order));
-  if (!(config.cell >= 0.0) || !std::isfinite(config.cell))
-    throw core::Error("tetrahedral mesh: the cell size must be a positive length in metres (0: automatic), got " +
-                      std::to_string(config.cell));
-  if (!(config.facet_distance >= 0.0) || !std::isfinite(config.facet_distance))
-    throw core::Error("tetrahedral mesh: facet_distance must be a positive length in metres (0: cell / 10), got " +
-                      std::to_string(config.facet_distance));
+  checkConfig(config);
   checkClosed(surface);
 
   Eigen::Vector3d lo = surface.vertices[0], hi = lo;
