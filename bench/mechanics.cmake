@@ -22,6 +22,12 @@ add_executable(mechanics_convergence ${CMAKE_CURRENT_LIST_DIR}/mechanics_converg
 target_link_libraries(mechanics_convergence PRIVATE demnerf_mechanics)  # OpenCV comes with demnerf_core
 target_compile_definitions(mechanics_convergence PRIVATE DEMNERF_ROOT="${DEMNERF_ROOT_DIR}")
 set_target_properties(mechanics_convergence PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin/bench")
+add_executable(mechanics_cgal_probe ${CMAKE_CURRENT_LIST_DIR}/mechanics_cgal_probe.cpp)
+target_link_libraries(mechanics_cgal_probe PRIVATE demnerf_mechanics)
+set_target_properties(mechanics_cgal_probe PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin/bench")
+add_executable(mechanics_inside_probe ${CMAKE_CURRENT_LIST_DIR}/mechanics_inside_probe.cpp)
+target_link_libraries(mechanics_inside_probe PRIVATE demnerf_mechanics)
+set_target_properties(mechanics_inside_probe PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin/bench")
 add_executable(mechanics_fem_convergence ${CMAKE_CURRENT_LIST_DIR}/mechanics_fem_convergence.cpp)
 target_link_libraries(mechanics_fem_convergence PRIVATE demnerf_mechanics)
 set_target_properties(mechanics_fem_convergence PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin/bench")

@@ -49,28 +49,50 @@ void FemSolver::Impl::buildGrid() {
   }
 }
 
+// Searches shells of cells around x's cell, nearest first: a point inside an element is found in
+// its own cell (every element is listed in each cell its box overlaps); a point outside the mesh
+// (the particles of a bumpy surface lie up to facet_distance outside its CGAL mesh) takes the best
+// element of the first shell that has one and the shell after it. The earlier search scanned 125
+// cells for every point and all elements for points farther out: interpolating at the NeRF
+// cuboid's 34k particles took 2.9 CPU s on a 17k-dof mesh whose solve took 2.0.
 int FemSolver::Impl::locate(const Eigen::Vector3d& x, Eigen::Vector4d& L) const {
-  const Eigen::Vector3i c = ((x - grid_lower).cwiseQuotient(grid_cell)).array().floor().cast<int>();
+  const Eigen::Vector3i c = ((x - grid_lower).cwiseQuotient(grid_cell))
+                                .array()
+                                .floor()
+                                .max(-1e6)
+                                .min(1e6)
+                                .cast<int>()
+                                .max(0)
+                                .min(grid_dims.array() - 1);
   int best = -1;
   double best_score = -std::numeric_limits<double>::infinity();
-  auto consider = [&](int e) {
-    const Eigen::Vector4d l = barycentric(corners(e), x);
-    if (l.minCoeff() > best_score) {
-      best_score = l.minCoeff();
-      best = e;
-      L = l;
+  const auto visit = [&](int xx, int y, int z) {
+    if (xx < 0 || y < 0 || z < 0 || xx >= grid_dims(0) || y >= grid_dims(1) || z >= grid_dims(2)) return;
+    for (int e : grid[xx + grid_dims(0) * (y + grid_dims(1) * z)]) {
+      const Eigen::Vector4d l = barycentric(corners(e), x);
+      if (l.minCoeff() > best_score) {
+        best_score = l.minCoeff();
+        best = e;
+        L = l;
+      }
     }
   };
-  for (int ring = 1; ring <= 2 && best_score < -1e-12; ++ring) {
+  int found_ring = -1;
+  for (int ring = 0; ring <= grid_dims.maxCoeff(); ++ring) {
     for (int z = c(2) - ring; z <= c(2) + ring; ++z)
-      for (int y = c(1) - ring; y <= c(1) + ring; ++y)
-        for (int xx = c(0) - ring; xx <= c(0) + ring; ++xx) {
-          if (xx < 0 || y < 0 || z < 0 || xx >= grid_dims(0) || y >= grid_dims(1) || z >= grid_dims(2)) continue;
-          for (int e : grid[xx + grid_dims(0) * (y + grid_dims(1) * z)]) consider(e);
+      for (int y = c(1) - ring; y <= c(1) + ring; ++y) {
+        // Only the shell at this ring: whole rows on its faces, the two end cells elsewhere.
+        if (std::abs(z - c(2)) == ring || std::abs(y - c(1)) == ring) {
+          for (int xx = c(0) - ring; xx <= c(0) + ring; ++xx) visit(xx, y, z);
+        } else {
+          visit(c(0) - ring, y, z);
+          if (ring > 0) visit(c(0) + ring, y, z);
         }
+      }
+    if (best_score >= -1e-12) break;  // inside (or on) an element
+    if (best >= 0 && found_ring < 0) found_ring = ring;
+    if (found_ring >= 0 && ring > found_ring) break;
   }
-  if (best < 0)  // far outside the mesh: take the best element anywhere
-    for (int e = 0; e < static_cast<int>(mesh.elements.size()); ++e) consider(e);
   return best;
 }
 
