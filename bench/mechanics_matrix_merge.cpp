@@ -4,14 +4,18 @@
 //   mechanics_matrix_merge out=DIR [title=TEXT] [solvers=fem,dem,...] a.csv b.csv ...
 //
 // Rows are keyed by scenario, source, sampler and spacing; a solver's cell in a later CSV replaces
-// the same solver's cell of that cloud in an earlier one, and a later mesh-convergence row the
-// earlier one of its scenario and source. Columns keep the order of solvers=, else of first
-// appearance. The report is always titled PARTIAL: a merge does not prove every cell was run.
+// the same solver's cell of that cloud in an earlier one (and the later reference energy the
+// earlier), and a later mesh-convergence row the earlier one of its scenario and source: list the
+// runs against the finest references last. Columns keep the order of solvers=, else of first
+// appearance; rows are grouped by scenario, source and sampler, spacings coarse to fine. The
+// report is always titled PARTIAL: a merge does not prove every cell was run.
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "demnerf/core/error.hpp"
@@ -51,6 +55,8 @@ void mergeRow(bench::MatrixReport& into, const bench::MatrixRow& row) {
       addSolver(into, cell.solver);
     }
     if (!row.cloud_error.empty()) mine.cloud_error = row.cloud_error;
+    // A later run may use a finer reference: its cells were measured against it.
+    mine.reference_energy = row.reference_energy, mine.reference_max_u = row.reference_max_u;
     return;
   }
   into.rows.push_back(row);
@@ -61,6 +67,23 @@ void mergeConvergence(bench::MatrixReport& into, const bench::ConvergenceRow& ro
   for (bench::ConvergenceRow& mine : into.convergence)
     if (mine.scenario == row.scenario && mine.source == row.source) return void(mine = row);
   into.convergence.push_back(row);
+}
+
+// Rows grouped as mechanics_matrix writes them: scenario, source and sampler in the order they
+// first appear, spacings coarse to fine.
+void sortRows(bench::MatrixReport& report) {
+  std::vector<std::string> order;
+  const auto rank = [&order](const std::string& name) {
+    const auto at = std::find(order.begin(), order.end(), name);
+    if (at != order.end()) return static_cast<int>(at - order.begin());
+    order.push_back(name);
+    return static_cast<int>(order.size()) - 1;
+  };
+  for (const bench::MatrixRow& row : report.rows) rank(row.scenario), rank(row.source), rank(row.sampler);
+  std::stable_sort(report.rows.begin(), report.rows.end(), [&](const bench::MatrixRow& a, const bench::MatrixRow& b) {
+    return std::make_tuple(rank(a.scenario), rank(a.source), rank(a.sampler), a.spacing_divisor) <
+           std::make_tuple(rank(b.scenario), rank(b.source), rank(b.sampler), b.spacing_divisor);
+  });
 }
 
 }  // namespace
@@ -87,6 +110,7 @@ int main(int argc, char** argv) {
       for (const bench::MatrixRow& row : part.rows) mergeRow(report, row);
       for (const bench::ConvergenceRow& row : part.convergence) mergeConvergence(report, row);
     }
+    sortRows(report);
     std::filesystem::create_directories(out);
     bench::writeCsv(report, out + "/mechanics_matrix.csv");
     std::ofstream(out + "/mechanics_matrix.md") << bench::markdown(report);
