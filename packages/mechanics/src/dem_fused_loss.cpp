@@ -26,7 +26,9 @@ const float* floats(const Tensor& t) { return t.defined() && t.numel() > 0 ? t.d
 // on the compressible Neo-Hookean. Anything else keeps autograd.
 bool DemSolver::Impl::fusedLossAvailable() const {
   return config.network.fused && !grid && !config.parametric.enabled && dtype == torch::kFloat32 &&
-         config.network.activation == "tanh" && scenario.material.model == "neo_hookean" && config.network.depth >= 1;
+         config.network.activation == "tanh" &&
+         (scenario.material.model == "neo_hookean" || scenario.material.model == "neo_hookean_decoupled") &&
+         config.network.depth >= 1;
 }
 
 // The loss on a draw (drawJitter()) and, with `gradient`, its gradient into the parameters' .grad.
@@ -55,6 +57,8 @@ Tensor DemSolver::Impl::fusedLoss(double scale, const JitterDraw& draw, bool gra
   mlp_kernel::Problem pb;
   pb.mu = material->mu();
   pb.lambda = scenario.material.lambda();
+  pb.decoupled = scenario.material.model == "neo_hookean_decoupled";
+  pb.kappa = material->kappa();
   pb.load_scale = scale;
   pb.output_scale = out_scale;
   pb.energy_scale = energy_scale;

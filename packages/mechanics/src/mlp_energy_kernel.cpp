@@ -251,6 +251,22 @@ void backwardChunk(const Network& net, Workspace& ws) {
 
 inline float& lane(std::vector<v16>& a, int row, int q) { return a[row * kV + q / kLanes][q % kLanes]; }
 
+// The energy density from J and I1 = tr(F^T F), and its stress P = a F + f cof(F): both models'
+// dPsi/dF have that form, since dJ/dF = cof F and dI1/dF = 2 F.
+struct Density {
+  double value, a, f;
+};
+
+Density density(const Problem& pb, double J, double I1) {
+  const double lnJ = std::log(J);
+  if (pb.decoupled) {
+    const double Jm = std::pow(J, -2.0 / 3.0);
+    return {0.25 * pb.kappa * (J * J - 1 - 2 * lnJ) + 0.5 * pb.mu * (Jm * I1 - 3), pb.mu * Jm,
+            0.5 * pb.kappa * (J - 1 / J) - pb.mu * Jm * I1 / (3 * J)};
+  }
+  return {0.5 * pb.mu * (I1 - 3) - pb.mu * lnJ + 0.5 * pb.lambda * lnJ * lnJ, pb.mu, (pb.lambda * lnJ - pb.mu) / J};
+}
+
 // The mechanics at one volume point in double: energy density, det F, and the adjoints of z and
 // its X-derivatives (already / energy_scale). False when det F <= 0 or not finite.
 bool volumePoint(const Problem& pb, std::int64_t p, Workspace& ws, int q) {
@@ -276,18 +292,18 @@ bool volumePoint(const Problem& pb, std::int64_t p, Workspace& ws, int q) {
   const double J = F[0][0] * C[0][0] + F[0][1] * C[0][1] + F[0][2] * C[0][2];
   ws.min_J = std::min(ws.min_J, J);
   if (!(J > 0) || !std::isfinite(J)) return false;
-  const double lnJ = std::log(J);
   double I1 = 0.0, work = 0.0;
   for (int i = 0; i < 3; ++i) {
     work += vp.body[3 * p + i] * u[i];
     for (int k = 0; k < 3; ++k) I1 += F[i][k] * F[i][k];
   }
-  ws.energy += wq * (0.5 * pb.mu * (I1 - 3) - pb.mu * lnJ + 0.5 * pb.lambda * lnJ * lnJ) - s * work;
-  const double f = (pb.lambda * lnJ - pb.mu) / J, to_loss = A / pb.energy_scale;
+  const Density psi = density(pb, J, I1);
+  ws.energy += wq * psi.value - s * work;
+  const double to_loss = A / pb.energy_scale;
   for (int i = 0; i < 3; ++i) {
     double gz = -s * vp.body[3 * p + i] * D[i];
     for (int k = 0; k < 3; ++k) {
-      const double P = pb.mu * F[i][k] + f * C[i][k];
+      const double P = psi.a * F[i][k] + psi.f * C[i][k];
       if (vp.g) gz += wq * P * vp.grad_D[9 * p + 3 * i + k];
       lane(ws.gdz, 3 * i + k, q) = static_cast<float>(to_loss * wq * P * D[i]);
     }

@@ -49,6 +49,9 @@ struct PenaltyPoints {
 
 struct Problem {
   double mu = 0.0, lambda = 0.0;  ///< the compressible Neo-Hookean's Lame constants
+  /// The decoupled Neo-Hookean instead (Cook's membrane): kappa/4 (J^2 - 1 - 2 ln J) + mu/2 (J^(-2/3) I1 - 3).
+  bool decoupled = false;
+  double kappa = 0.0;
   double load_scale = 1.0;        ///< s
   double output_scale = 1.0;      ///< A (m)
   double energy_scale = 1.0;      ///< the loss is Pi / energy_scale (+ penalty)

@@ -1,7 +1,7 @@
 // The MLP-only DEM's hand-written loss kernel (mlp_energy_kernel.hpp) against its definition:
 // the same energy built from torch operations in float64 and differentiated by autograd, for the
-// exact boundary (lift g, distance D and their gradients) and the penalty one, on point counts that
-// leave a partly filled chunk, on one thread and on two.
+// exact boundary (lift g, distance D and their gradients) and the penalty one, the compressible and
+// the decoupled Neo-Hookean, on point counts that leave a partly filled chunk, on one thread and on two.
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
@@ -15,7 +15,7 @@ namespace {
 
 using torch::Tensor;
 
-constexpr double kMu = 2.0e5, kLambda = 3.0e5, kScale = 0.8, kOutput = 0.01, kEnergyScale = 7.0;
+constexpr double kMu = 2.0e5, kLambda = 3.0e5, kKappa = 4.3e5, kScale = 0.8, kOutput = 0.01, kEnergyScale = 7.0;
 
 struct Points {
   Tensor x, g, gg, D, gD, w, body, xs, gs, Ds, force, xc, value, mask;
@@ -43,7 +43,8 @@ Points randomPoints(long n, long ns, long nc) {
 }
 
 // The loss by torch operations on a float64 copy of the network, and its parameter gradient.
-double autogradLoss(const DisplacementMlp& net, const Points& p, bool exact, std::vector<Tensor>& grads) {
+double autogradLoss(const DisplacementMlp& net, const Points& p, bool exact, bool decoupled,
+                    std::vector<Tensor>& grads) {
   const auto d = [](const Tensor& t) { return t.to(torch::kFloat64); };
   const Tensor c = net.center().to(torch::kFloat64), ih = net.invHalf().to(torch::kFloat64);
   DisplacementMlp net64(0, net.weights()[0].size(0), static_cast<int>(net.weights().size()) - 1, "tanh",
@@ -65,7 +66,9 @@ double autogradLoss(const DisplacementMlp& net, const Points& p, bool exact, std
     u = kScale * d(p.g) + d(p.D) * u;
   }
   const Tensor F = gu + torch::eye(3, torch::kFloat64).unsqueeze(0), J = torch::det(F), lnJ = torch::log(J);
-  const Tensor psi = 0.5 * kMu * ((F * F).sum({1, 2}) - 3) - kMu * lnJ + 0.5 * kLambda * lnJ * lnJ;
+  const Tensor I1 = (F * F).sum({1, 2});
+  const Tensor psi = decoupled ? 0.25 * kKappa * (J * J - 1 - 2 * lnJ) + 0.5 * kMu * (torch::pow(J, -2.0 / 3.0) * I1 - 3)
+                               : 0.5 * kMu * (I1 - 3) - kMu * lnJ + 0.5 * kLambda * lnJ * lnJ;
   Tensor pi = (psi * d(p.w)).sum() - kScale * (d(p.body) * u).sum();
   Tensor us = z(p.xs, 0).value * kOutput;
   if (exact) us = kScale * d(p.gs) + d(p.Ds) * us;
@@ -81,7 +84,8 @@ double autogradLoss(const DisplacementMlp& net, const Points& p, bool exact, std
   return loss.item<double>();
 }
 
-double kernelLoss(const DisplacementMlp& net, const Points& p, bool exact, int threads, std::vector<Tensor>& grads) {
+double kernelLoss(const DisplacementMlp& net, const Points& p, bool exact, bool decoupled, int threads,
+                  std::vector<Tensor>& grads) {
   mlp_kernel::Network nn;
   nn.width = static_cast<int>(net.weights()[0].size(0));
   nn.depth = static_cast<int>(net.weights().size()) - 1;
@@ -101,6 +105,8 @@ double kernelLoss(const DisplacementMlp& net, const Points& p, bool exact, int t
   mlp_kernel::Problem pb;
   pb.mu = kMu;
   pb.lambda = kLambda;
+  pb.decoupled = decoupled;
+  pb.kappa = kKappa;
   pb.load_scale = kScale;
   pb.output_scale = kOutput;
   pb.energy_scale = kEnergyScale;
@@ -122,10 +128,10 @@ double kernelLoss(const DisplacementMlp& net, const Points& p, bool exact, int t
   return r.loss;
 }
 
-class MlpEnergyKernel : public ::testing::TestWithParam<std::tuple<bool, int>> {};
+class MlpEnergyKernel : public ::testing::TestWithParam<std::tuple<bool, bool, int>> {};
 
 TEST_P(MlpEnergyKernel, MatchesAutogradOfTheSameEnergy) {
-  const auto [exact, threads] = GetParam();
+  const auto [exact, decoupled, threads] = GetParam();
   torch::manual_seed(11);
   DisplacementMlp net(0, 12, 3, "tanh", Eigen::Vector3d(0.2, 0.05, 0.1), Eigen::Vector3d(0.2, 0.05, 0.1),
                       torch::kFloat32);
@@ -136,8 +142,8 @@ TEST_P(MlpEnergyKernel, MatchesAutogradOfTheSameEnergy) {
   }
   const Points p = randomPoints(203, 37, 21);  // 203 = 6 chunks of 32 and 11 points
   std::vector<Tensor> want, got;
-  const double reference = autogradLoss(net, p, exact, want);
-  const double loss = kernelLoss(net, p, exact, threads, got);
+  const double reference = autogradLoss(net, p, exact, decoupled, want);
+  const double loss = kernelLoss(net, p, exact, decoupled, threads, got);
   EXPECT_NEAR(loss, reference, 2e-5 * std::abs(reference));
   ASSERT_EQ(want.size(), got.size());
   for (std::size_t i = 0; i < want.size(); ++i) {
@@ -147,8 +153,8 @@ TEST_P(MlpEnergyKernel, MatchesAutogradOfTheSameEnergy) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(BoundaryAndThreads, MlpEnergyKernel,
-                         ::testing::Combine(::testing::Bool(), ::testing::Values(1, 2)));
+INSTANTIATE_TEST_SUITE_P(BoundaryModelAndThreads, MlpEnergyKernel,
+                         ::testing::Combine(::testing::Bool(), ::testing::Bool(), ::testing::Values(1, 2)));
 
 }  // namespace
 }  // namespace demnerf::mechanics
