@@ -60,14 +60,4 @@ double InsideTest::squaredDistance(const Eigen::Vector3d& point) const {
   return CGAL::to_double(impl_->tree.squared_distance(Point(point.x(), point.y(), point.z())));
 }
 
-std::vector<int> InsideTest::crossedFaces(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const {
-  std::vector<Primitive::Id> hits;
-  impl_->tree.all_intersected_primitives(Kernel::Segment_3(Point(a.x(), a.y(), a.z()), Point(b.x(), b.y(), b.z())),
-                                         std::back_inserter(hits));
-  std::vector<int> out;
-  out.reserve(hits.size());
-  for (const auto& f : hits) out.push_back(static_cast<int>(f.idx()));
-  return out;
-}
-
 }  // namespace demnerf::geometry

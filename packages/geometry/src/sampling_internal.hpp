@@ -94,8 +94,8 @@ struct SurfaceFrames {
   /// Unit, outward: the mean of the surface's triangles within half a spacing that lie within
   /// 60 deg of it, so a bumpy extraction's noise averages out and true edges stay sharp.
   std::vector<Eigen::Vector3d> normals;
-  /// The point's wall faces another wall within one spacing across empty space (a crack of a
-  /// NeRF extraction): the cloud cannot resolve the gap and the point is not kept as surface.
+  /// Most of the half-ball of one spacing in front of the point is solid (a crack, pocket or thin
+  /// cavity of a NeRF extraction): the cloud cannot resolve the gap; not kept as surface.
   std::vector<char> crack_wall;
 };
 SurfaceFrames surfaceFrames(const PreparedMesh& prepared, const SampleSet& set, double spacing);

@@ -7,9 +7,11 @@
 // - thin cracks and pockets reaching into the body (the NeRF never sees the interior: 3 % of the
 //   extracted cuboid's area lies more than 10 mm inside the box). A particle on a crack's wall
 //   carves a spacing-wide slab out of the solid around it (the cuboid's clouds lost 8-20 % of
-//   their volume, most of it there). A wall that another wall faces within one spacing, across
-//   empty space, bounds a gap the cloud cannot resolve: its particles are dropped, so the gap
-//   is filled as solid (a gap that thin is well under a spacing's worth of volume).
+//   their volume, most of it there). A particle whose half-ball of one spacing in front is mostly
+//   solid bounds a gap the cloud cannot resolve: it is dropped, so the gap is filled as solid (a
+//   gap that thin holds well under a spacing's worth of volume). The whole half-ball, not a ray
+//   along the normal: a thin cavity's rim faces along the cavity, and a rim particle left alone
+//   would carve the solid on both sides of it.
 // - bumps of a few millimetres that tilt the triangles 25-34 deg: a particle's own triangle is a
 //   poor normal for the spacing-sized patch its tangent plane stands for. The normal is the
 //   area-weighted mean of the triangles within half a spacing, over those within 60 deg of the
@@ -26,6 +28,7 @@ namespace {
 
 constexpr double kConeCosine = 0.5;  ///< cos 60 deg: triangles of the same face
 constexpr int kMeanShiftSteps = 3;
+constexpr double kSolidShare = 0.6;  ///< above a concave edge's half, below a crack's
 
 /// Face centroids in cubic buckets, for the faces within a radius of a point.
 class FaceBuckets {
@@ -83,12 +86,24 @@ Eigen::Vector3d patchNormal(const PreparedMesh& prepared, const FaceBuckets& buc
   return (n - own).norm() < 1e-9 ? own : n;
 }
 
-/// Another wall faces this particle, across empty space, within `reach` along its normal.
-bool facesWallWithin(const PreparedMesh& prepared, const Eigen::Vector3d& x, int face, double reach) {
-  const Eigen::Vector3d& n = prepared.normals[face];
-  for (int f : prepared.inside.crossedFaces(x + 1e-4 * reach * n, x + reach * n))
-    if (f != face && prepared.normals[f].dot(n) < 0.0) return true;
-  return false;
+/// Most of the half-ball of radius `spacing` in front of the particle is solid: its wall bounds a
+/// gap (a crack, a pocket, a cavity's rim) thinner than the cloud resolves. Probed on a fixed
+/// spread of directions at half and one spacing; a particle on a 90 deg concave edge sees at
+/// most half solid, an outer face none.
+bool solidInFront(const PreparedMesh& prepared, const Eigen::Vector3d& x, const Eigen::Vector3d& n, double spacing) {
+  constexpr int kDirections = 64;
+  const double golden = M_PI * (3.0 - std::sqrt(5.0));
+  int probes = 0, solid = 0;
+  for (int k = 0; k < kDirections; ++k) {
+    const double z = 1.0 - (2.0 * k + 1.0) / kDirections, r = std::sqrt(1.0 - z * z);
+    const Eigen::Vector3d d(r * std::cos(golden * k), r * std::sin(golden * k), z);
+    if (d.dot(n) < 0.25) continue;
+    for (double reach : {0.5 * spacing, spacing}) {
+      ++probes;
+      solid += prepared.inside.inside(x + reach * d);
+    }
+  }
+  return solid > kSolidShare * probes;
 }
 
 }  // namespace
@@ -102,7 +117,7 @@ SurfaceFrames surfaceFrames(const PreparedMesh& prepared, const SampleSet& set, 
   for (std::size_t s = 0; s < set.surface.size(); ++s) {
     const int face = set.surface_faces[s];
     out.normals.push_back(patchNormal(prepared, buckets, set.surface[s], face, radius));
-    out.crack_wall.push_back(facesWallWithin(prepared, set.surface[s], face, spacing));
+    out.crack_wall.push_back(solidInFront(prepared, set.surface[s], prepared.normals[face], spacing));
   }
   return out;
 }

@@ -4,7 +4,6 @@
 #include <Eigen/Core>
 #include <memory>
 #include <string>
-#include <vector>
 
 #include "demnerf/core/ply.hpp"
 
@@ -23,8 +22,6 @@ class InsideTest {
   bool inside(const Eigen::Vector3d& point) const;
   /// Squared distance to the nearest point of the surface.
   double squaredDistance(const Eigen::Vector3d& point) const;
-  /// The faces (indices in the mesh's order) the segment from a to b crosses or touches.
-  std::vector<int> crossedFaces(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const;
 
  private:
   struct Impl;

@@ -61,8 +61,9 @@ struct SamplingReport {
   double mesh_area = 0.0;
   double volume_sum = 0.0;  ///< sum of particle volumes
   double area_sum = 0.0;    ///< sum of particle areas
-  /// Surface points dropped because their wall faces another within a spacing (a crack of a
-  /// NeRF extraction the cloud cannot resolve); their area is not in area_sum.
+  /// Surface points dropped because the half-ball of one spacing in front of them is mostly
+  /// solid (a crack or thin cavity of a NeRF extraction the cloud cannot resolve); their area is
+  /// not in area_sum.
   std::size_t crack_walls = 0;
 };
 
