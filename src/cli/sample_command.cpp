@@ -62,7 +62,7 @@ Figures runSample(const Arguments& arguments) {
                  {"volume_sum", report.volume_sum}, {"area", report.mesh_area},
                  {"area_sum", report.area_sum},     {"method", geometry::samplingMethodName(config.method)},
                  {"spacing", config.spacing},       {"seconds", seconds},
-                 {"out", out_path}};
+                 {"crack_walls", report.crack_walls}, {"out", out_path}};
 }
 
 }  // namespace

@@ -85,6 +85,44 @@ std::array<std::uint8_t, 3> toColor(const SamplerConfig& config, const Eigen::Ve
   return out;
 }
 
+// Interior particles first, then the surface ones with the normals of their patch. A surface
+// point on a crack's wall (detail::SurfaceFrames) stays only as the volume it carries, if any.
+core::ParticleCloud assemble(const detail::PreparedMesh& prepared, const SamplerConfig& config,
+                             const detail::SampleSet& set, const std::vector<double>& volumes,
+                             const std::vector<double>& areas, SamplingReport* summary) {
+  const detail::SurfaceFrames frames = detail::surfaceFrames(prepared, set, config.spacing);
+  core::ParticleCloud cloud;
+  const std::size_t n_in = set.interior.size();
+  cloud.resize(n_in + set.surface.size());
+  summary->interior = n_in;
+  summary->mesh_volume = prepared.volume();
+  summary->mesh_area = prepared.area();
+  std::size_t i = 0;
+  const auto add = [&](const Eigen::Vector3d& x, double volume, const Eigen::Vector3d& normal, double area) {
+    cloud.positions[i] = x;
+    cloud.volumes[i] = volume;
+    cloud.normals[i] = normal;
+    cloud.areas[i] = area;
+    cloud.colors[i] = toColor(config, x);
+    summary->volume_sum += volume;
+    summary->area_sum += area;
+    ++i;
+  };
+  for (std::size_t k = 0; k < n_in; ++k) add(set.interior[k], volumes[k], Eigen::Vector3d::Zero(), 0.0);
+  for (std::size_t s = 0; s < set.surface.size(); ++s) {
+    const double volume = config.surface_volumes ? volumes[n_in + s] : 0.0;
+    if (!frames.crack_wall[s]) {
+      add(set.surface[s], volume, frames.normals[s], areas[s]);
+      ++summary->surface;
+    } else {
+      ++summary->crack_walls;
+      if (volume > 0) add(set.surface[s], volume, Eigen::Vector3d::Zero(), 0.0);
+    }
+  }
+  cloud.resize(i);
+  return cloud;
+}
+
 }  // namespace
 
 core::ParticleCloud sampleParticles(const core::TriangleMesh& mesh, const SamplerConfig& config,
@@ -127,33 +165,8 @@ core::ParticleCloud sampleParticles(const core::TriangleMesh& mesh, const Sample
   if (area_total > 0) {
     for (double& a : areas) a *= prepared.area() / area_total;
   }
-
-  core::ParticleCloud cloud;
-  const std::size_t n_in = set.interior.size();
-  cloud.resize(n_in + set.surface.size());
   SamplingReport summary;
-  summary.interior = n_in;
-  summary.surface = set.surface.size();
-  summary.mesh_volume = prepared.volume();
-  summary.mesh_area = prepared.area();
-  for (std::size_t i = 0; i < n_in; ++i) {
-    cloud.positions[i] = set.interior[i];
-    cloud.volumes[i] = volumes[i];
-    cloud.normals[i] = Eigen::Vector3d::Zero();
-    cloud.areas[i] = 0.0;
-    cloud.colors[i] = toColor(config, set.interior[i]);
-    summary.volume_sum += volumes[i];
-  }
-  for (std::size_t s = 0; s < set.surface.size(); ++s) {
-    const std::size_t i = n_in + s;
-    cloud.positions[i] = set.surface[s];
-    cloud.volumes[i] = config.surface_volumes ? volumes[i] : 0.0;
-    summary.volume_sum += cloud.volumes[i];
-    cloud.normals[i] = prepared.normals[set.surface_faces[s]];
-    cloud.areas[i] = areas[s];
-    cloud.colors[i] = toColor(config, set.surface[s]);
-    summary.area_sum += areas[s];
-  }
+  core::ParticleCloud cloud = assemble(prepared, config, set, volumes, areas, &summary);
   cloud.validate();
   if (report) *report = summary;
   return cloud;

@@ -89,6 +89,17 @@ std::vector<double> voronoiVolumes(const PreparedMesh& prepared, const std::vect
 std::vector<double> voronoiAreas(const PreparedMesh& prepared, const std::vector<Eigen::Vector3d>& points,
                                  const std::vector<int>& faces, double spacing, Rng& rng);
 
+/// What each surface point of a SampleSet carries besides its position (surface_frames.cpp).
+struct SurfaceFrames {
+  /// Unit, outward: the mean of the surface's triangles within half a spacing that lie within
+  /// 60 deg of it, so a bumpy extraction's noise averages out and true edges stay sharp.
+  std::vector<Eigen::Vector3d> normals;
+  /// Most of the half-ball of one spacing in front of the point is solid (a crack, pocket or thin
+  /// cavity of a NeRF extraction): the cloud cannot resolve the gap; not kept as surface.
+  std::vector<char> crack_wall;
+};
+SurfaceFrames surfaceFrames(const PreparedMesh& prepared, const SampleSet& set, double spacing);
+
 // Surface placements.
 void sampleSurfaceRandom(const PreparedMesh& prepared, std::size_t count, Rng& rng, SampleSet* set);
 void sampleSurfacePoisson(const PreparedMesh& prepared, double radius, Rng& rng, SampleSet* set);

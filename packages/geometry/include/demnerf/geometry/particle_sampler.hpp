@@ -61,12 +61,18 @@ struct SamplingReport {
   double mesh_area = 0.0;
   double volume_sum = 0.0;  ///< sum of particle volumes
   double area_sum = 0.0;    ///< sum of particle areas
+  /// Surface points dropped because the half-ball of one spacing in front of them is mostly
+  /// solid (a crack or thin cavity of a NeRF extraction the cloud cannot resolve); their area is
+  /// not in area_sum.
+  std::size_t crack_walls = 0;
 };
 
 /// Samples the body bounded by `mesh` (closed; faces may point in or out, they are turned
 /// outward). Interior particles come first, with volume > 0 and area 0, their volumes summing to
 /// the mesh volume; surface particles follow, on the mesh, with volume 0 (see surface_volumes),
-/// the outward unit normal of their face and an area weight, the areas summing to the mesh area. Deterministic
+/// the outward unit normal of their patch (the mean of the faces within half a spacing and 60 deg of
+/// theirs: a flat face's normal, a bumpy one's averaged) and an area weight, the areas summing to
+/// the mesh area less that of crack walls (SamplingReport::crack_walls; exact surfaces have none). Deterministic
 /// for a given seed. Throws core::Error for an open/empty/degenerate mesh, a spacing that is
 /// not positive, too large for the body or so small the cloud would exceed max_particles.
 core::ParticleCloud sampleParticles(const core::TriangleMesh& mesh, const SamplerConfig& config,
