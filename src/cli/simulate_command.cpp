@@ -173,7 +173,8 @@ const char* usage() {
          "  --save-model M.dem     save the trained DEM for `demnerf predict` (default: not saved)\n"
          "  --threads T            torch threads of the DEM and PINN (default "
       << d.dem.threads
-      << ": 1 below 50k particles, else all cores)\n"
+      << ": 1 below 50k particles, else all cores;\n"
+         "                         the MLP's fused kernel: one per 1000 points, up to all cores)\n"
          "FEM:\n"
          "  --mesh M.ply           mesh this closed surface (default: voxels of the cells that hold particles)\n"
          "  --mesher cgal|voxel    default "

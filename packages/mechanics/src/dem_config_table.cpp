@@ -104,7 +104,8 @@ std::vector<Field> demFields(DemConfig& c) {
   std::vector<Field> all{
       integer(s, "load_steps", c.load_steps, 0, kMany, "load steps (0: the scenario's, 1 with the grid)"),
       integer(s, "max_halvings", c.max_halvings, 0, kMany, "load-step halvings after a failed step"),
-      integer(s, "threads", c.threads, 0, kMany, "torch threads (0: 1 below 50k particles, else all cores)"),
+      integer(s, "threads", c.threads, 0, kMany,
+              "threads (0: torch 1 below 50k particles, else all cores; the MLP's fused kernel 1 per 1000 points)"),
       flag(s, "tune_allocator", c.tune_allocator, "raise glibc's mmap threshold (reuses Adam's buffers)"),
       flag(s, "verbose", c.verbose, "print training details"),
   };

@@ -134,8 +134,8 @@ struct DemConfig {
   DemParametricConfig parametric;
   int load_steps = 0;           ///< 0: the scenario's, or 1 with the feature grid (a failed step is halved)
   int max_halvings = 4;         ///< load-step halvings after an inverted or NaN solve (4)
-  /// Torch threads (0: 1 below 50k particles, all cores above) and the grid Newton's assembly
-  /// threads (0: all cores).
+  /// Torch threads (0: 1 below 50k particles, all cores above), the grid Newton's assembly
+  /// threads (0: all cores) and the MLP's fused loss kernel's (0: one per 1000 points, up to all cores).
   int threads = 0;
   bool tune_allocator = true;   ///< raise glibc's mmap threshold, process-wide, to reuse Adam's buffers (true); applied by the entry point (dem_node, `demnerf simulate`): keepLargeAllocationsInHeap()
   bool verbose = false;         ///< print training details (false)
