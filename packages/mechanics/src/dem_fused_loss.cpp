@@ -95,17 +95,20 @@ Tensor DemSolver::Impl::fusedLoss(double scale, const JitterDraw& draw, bool gra
 
 // Gauss points (2 per axis) in the cells of a grid of lbfgs.cell_spacings particle spacings over
 // the body the cloud describes, cut cells moment-fitted (cell_quadrature.hpp), with
-// the lift there: the same points whatever sampler made the cloud.
-const DemSolver::Impl::JitterDraw& DemSolver::Impl::cellDraw() {
-  if (cell_draw.x.defined()) return cell_draw;
+// the lift there: the same points whatever sampler made the cloud. `shift` moves the grid by
+// that fraction of a cell along each axis.
+DemSolver::Impl::JitterDraw DemSolver::Impl::cellQuadratureDraw(double shift) {
   const double spacing = interiorParticleSpacing(cloud);
   const torch_support::BodyBox box = torch_support::bodyBox(cloud);
-  const Eigen::Vector3d margin = Eigen::Vector3d::Constant(0.5 * spacing);  // as the grid DEM's
   // No finer than a sixth of the body's smallest dimension (the matrix's coarsest spacing): past
   // that the points' cost grows with the cloud and the field does not change (Beam3D's 1/10 grid
   // cloud at one spacing: 32k points).
   const double cell = std::max(config.lbfgs.cell_spacings * spacing, box.half.minCoeff() / 3.0);
-  const BsplineGrid cells(box.center - box.half - margin, box.center + box.half + margin, cell, 1);
+  // Half a spacing of margin as the grid DEM's. Shifted: a cell more on each side, so that moving
+  // the box (the grid is centred on it) still covers the body.
+  const Eigen::Vector3d margin = Eigen::Vector3d::Constant(0.5 * spacing + (shift > 0 ? cell : 0.0));
+  const Eigen::Vector3d offset = Eigen::Vector3d::Constant(shift * cell);
+  const BsplineGrid cells(box.center - box.half - margin - offset, box.center + box.half + margin - offset, cell, 1);
   CellQuadratureConfig cq;
   cq.points_per_axis = 2;
   cq.boundary_levels = 0;  // cut cells moment-fitted whole: split, a thin body's cells held 8x the points
@@ -114,16 +117,28 @@ const DemSolver::Impl::JitterDraw& DemSolver::Impl::cellDraw() {
   const DirichletLift lift = dirichletLift(scenario, q.points, length, &held);
   std::vector<Eigen::Vector3d> body_forces(q.points.size());
   for (std::size_t i = 0; i < q.points.size(); ++i) body_forces[i] = q.weights[i] * scenario.body_force;
-  cell_draw.x = toTensor(q.points, dtype);
-  cell_draw.vol = toTensor(q.weights, dtype);
-  cell_draw.body = toTensor(body_forces, dtype);
-  cell_draw.lift[0] = toTensor(lift.g, dtype);
-  cell_draw.lift[1] = toTensor(lift.grad_g, dtype);
-  cell_draw.lift[2] = toTensor(lift.D, dtype);
-  cell_draw.lift[3] = toTensor(lift.grad_D, dtype);
+  JitterDraw draw;
+  draw.x = toTensor(q.points, dtype);
+  draw.vol = toTensor(q.weights, dtype);
+  draw.body = toTensor(body_forces, dtype);
+  draw.lift[0] = toTensor(lift.g, dtype);
+  draw.lift[1] = toTensor(lift.grad_g, dtype);
+  draw.lift[2] = toTensor(lift.D, dtype);
+  draw.lift[3] = toTensor(lift.grad_D, dtype);
   if (config.verbose)
-    std::cerr << "dem: MLP quadrature " << q.points.size() << " Gauss points in cells of " << cells.cell() << " m\n";
+    std::cerr << "dem: MLP quadrature " << q.points.size() << " Gauss points in cells of " << cells.cell() << " m"
+              << (shift > 0 ? " (shifted: the exploit guard's)" : "") << "\n";
+  return draw;
+}
+
+const DemSolver::Impl::JitterDraw& DemSolver::Impl::cellDraw() {
+  if (!cell_draw.x.defined()) cell_draw = cellQuadratureDraw(0.0);
   return cell_draw;
+}
+
+const DemSolver::Impl::JitterDraw& DemSolver::Impl::shiftedCellDraw() {
+  if (!shifted_cell_draw.x.defined()) shifted_cell_draw = cellQuadratureDraw(0.5);
+  return shifted_cell_draw;
 }
 
 }  // namespace demnerf::mechanics

@@ -118,9 +118,13 @@ struct DemSolver::Impl {
   // dem_fused_loss.cpp: the same loss on a draw by mlp_energy_kernel.hpp, its gradient into .grad.
   bool fusedLossAvailable() const;
   Tensor fusedLoss(double scale, const JitterDraw& draw, bool gradient, double* energy, double* min_J);
-  // ...and the fixed cell quadrature lbfgs.cell_spacings asks for (built at the first solve).
-  JitterDraw cell_draw;
+  // ...and the fixed cell quadrature lbfgs.cell_spacings asks for (built at the first solve), and
+  // the same rule on the grid shifted by half a cell: points the training never sees, whose energy
+  // tells an exploit of the training points from progress (sampledLbfgsRun).
+  JitterDraw cell_draw, shifted_cell_draw;
   const JitterDraw& cellDraw();
+  const JitterDraw& shiftedCellDraw();
+  JitterDraw cellQuadratureDraw(double shift);
   void rescaleOutput(double scale);
   std::vector<Tensor> snapshot() const { return torch_support::snapshot(parameters()); }
   void restore(const std::vector<Tensor>& s) { torch_support::restore(parameters(), s); }

@@ -291,12 +291,33 @@ void DemSolver::Impl::sampledLbfgsRun(double scale, int& iterations, int count, 
   if (count <= 0) return;
   // The cell quadrature is one fixed draw: a single run, one history.
   const bool cells = config.lbfgs.cell_spacings > 0;
+  // Exploit guard (fixed cell points, fused kernel): the energy on the shifted cell points, every
+  // kGuardEvery evaluations, keeps the parameters where it was lowest. Progress lowers both
+  // energies; an exploit of the training points lowers theirs and raises the shifted ones' (the
+  // compression cube's random cloud: 2.1 % at 100 iterations, 75 % at 400 with the energy falling).
+  constexpr int kGuardEvery = 20;
+  constexpr double kGuardTolerance = 1e-3;  ///< relative: the final state is kept unless clearly worse
+  const bool guard = cells && fused;
+  double best_shifted = std::numeric_limits<double>::infinity();
+  std::vector<Tensor> best;
+  int evaluations = 0;
+  const auto shiftedEnergy = [&] {
+    double energy = 0.0, jm = 0.0;
+    fusedLoss(scale, shiftedCellDraw(), false, &energy, &jm);
+    return std::isfinite(energy) && jm > 0 ? energy : std::numeric_limits<double>::infinity();
+  };
+  const auto watch = [&] {
+    if (!guard || evaluations++ % kGuardEvery != 0) return;
+    const double energy = shiftedEnergy();
+    if (energy < best_shifted) best_shifted = energy, best = snapshot();
+  };
   runSampledLbfgs(
       parameters(), count, cells ? count : config.lbfgs.sample_iterations, config.lbfgs.history,
       config.lbfgs.tolerance,
       [&] {
         double jm = 0;
         Tensor l = fused ? fusedLoss(scale, draw, true, nullptr, &jm) : loss(scale, nullptr, &jm, true, &draw);
+        watch();
         const double value = l.item<double>();
         const auto now = std::chrono::steady_clock::now();
         adam_seconds += std::chrono::duration<double>(now - last).count();  // the pace the time-limit advice quotes
@@ -307,6 +328,14 @@ void DemSolver::Impl::sampledLbfgsRun(double scale, int& iterations, int count, 
         return std::make_pair(l, std::isfinite(value) && jm > 0);
       },
       [&] { draw = cells ? cellDraw() : drawJitter(); });
+  if (!guard || best.empty()) return;
+  const double final_energy = shiftedEnergy();
+  if (final_energy > best_shifted + kGuardTolerance * std::abs(best_shifted)) {
+    if (config.verbose)
+      std::cerr << "dem: exploit guard: energy on the shifted points " << final_energy << " J, best " << best_shifted
+                << " J; keeping the best\n";
+    restore(best);
+  }
 }
 
 }  // namespace demnerf::mechanics

@@ -77,6 +77,9 @@ template <typename Visit>
 void ParticleInsideTest::forEachSurfaceNear(const Eigen::Vector3i& c, Visit&& visit) const {
   const Eigen::Vector3i lo = (c.array() - kNearRings).max(0);
   const Eigen::Vector3i hi = (c.array() + kNearRings).min(dims_.array() - 1);
+  // A point more than kNearRings buckets outside the table has no surface near it; the x range
+  // below is read as one slice of the row, which must not start past its end.
+  if ((lo.array() > hi.array()).any()) return;
   for (int z = lo(2); z <= hi(2); ++z)
     for (int y = lo(1); y <= hi(1); ++y) {
       const long row = (static_cast<long>(z) * dims_(1) + y) * dims_(0);

@@ -148,6 +148,21 @@ TEST(ParticleInsideTest, PointsBeyondTheSurfaceParticlesReachAreOutside) {
   EXPECT_EQ(wrong, 0) << wrong << " of " << tried << " points 2.2-2.9 spacings outside a face counted inside";
 }
 
+// Points far outside the particles' bucket table along x only, in its last row (the MLP's shifted
+// exploit-guard quadrature reaches a cell past the body): the surface search read past the
+// table's end there (Beam3D at 1/10: a segmentation fault).
+TEST(ParticleInsideTest, PointsFarOutsideAlongOneAxisAreOutside) {
+  const Vector3d lo(0, 0, 0), hi(0.2, 0.1, 0.1);
+  const dm::ParticleInsideTest inside(dm::test::randomSurfaceBox(lo, hi, 0.012, 3));
+  for (double reach : {0.05, 0.3, 3.0, 300.0})
+    for (int axis = 0; axis < 3; ++axis)
+      for (double side : {-1.0, 1.0}) {
+        Vector3d x = hi;  // the last bucket row
+        x(axis) = side < 0 ? lo(axis) - reach : hi(axis) + reach;
+        EXPECT_FALSE(inside.inside(x)) << "axis " << axis << ", " << reach << " m " << (side < 0 ? "below" : "above");
+      }
+}
+
 TEST(ParticleInsideTest, SignedDistanceIsTheDepthBelowAFace) {
   const Vector3d lo(0, 0, 0), hi(0.2, 0.1, 0.1);
   const dm::ParticleInsideTest inside(dm::test::randomSurfaceBox(lo, hi, 0.012, 3));
