@@ -61,14 +61,6 @@ using Eigen::Vector3d;
 
 namespace {
 
-std::vector<std::string> split(const std::string& text) {
-  std::vector<std::string> out;
-  std::stringstream in(text);
-  for (std::string item; std::getline(in, item, ',');)
-    if (!item.empty()) out.push_back(item);
-  return out;
-}
-
 struct Settings {
   std::vector<std::string> scenarios, samplers, sources, solvers;
   std::vector<int> divisors;
@@ -88,11 +80,12 @@ Settings parseSettings(int argc, char** argv) {
   std::string all;
   for (const bench::MatrixCase& c : bench::matrixCases()) all += (all.empty() ? "" : ",") + c.name;
   Settings s;
-  s.scenarios = split(text("scenarios", quick ? "beam3d" : all));
-  s.samplers = split(text("samplers", quick ? "grid" : "random,poisson,grid"));
-  s.sources = split(text("sources", quick ? "exact" : "exact,nerf"));
-  s.solvers = split(text("solvers", quick ? "fem,dem" : "fem,dem,dem_mlp,dem_mlp_exact"));
-  for (const std::string& d : split(text("spacings", quick ? "6" : "6,10,15"))) s.divisors.push_back(std::stoi(d));
+  s.scenarios = bench::splitList(text("scenarios", quick ? "beam3d" : all));
+  s.samplers = bench::splitList(text("samplers", quick ? "grid" : "random,poisson,grid"));
+  s.sources = bench::splitList(text("sources", quick ? "exact" : "exact,nerf"));
+  s.solvers = bench::splitList(text("solvers", quick ? "fem,dem" : "fem,dem,dem_mlp,dem_mlp_exact"));
+  for (const std::string& d : bench::splitList(text("spacings", quick ? "6" : "6,10,15")))
+    s.divisors.push_back(std::stoi(d));
   s.time_limit = num("time_limit", s.time_limit);
   s.ref_time_limit = num("ref_time_limit", s.ref_time_limit);
   s.fem_div = num("fem_div", s.fem_div);
@@ -109,7 +102,7 @@ Settings parseSettings(int argc, char** argv) {
   s.boundary_levels = static_cast<int>(num("levels", s.boundary_levels));
   s.yaml = text("yaml", "");
   s.config = text("config", "");
-  s.rows = split(text("rows", ""));
+  s.rows = bench::splitList(text("rows", ""));
   if (!s.yaml.empty() && s.scenarios.size() != 1) throw demnerf::core::Error("yaml= needs exactly one scenario in scenarios=");
   s.partial = !s.yaml.empty() || !s.config.empty() || !s.rows.empty() || s.scenarios.size() < bench::matrixCases().size() ||
               s.samplers.size() < 3 || s.sources.size() < 2 || s.solvers.size() < 4 || s.divisors.size() < 3;

@@ -25,17 +25,6 @@ namespace bench = demnerf::bench;
 
 namespace {
 
-std::vector<std::string> splitList(const std::string& text) {
-  std::vector<std::string> items;
-  std::size_t start = 0;
-  while (start <= text.size()) {
-    const std::size_t end = std::min(text.find(',', start), text.size());
-    if (end > start) items.push_back(text.substr(start, end - start));
-    start = end + 1;
-  }
-  return items;
-}
-
 void addSolver(bench::MatrixReport& report, const std::string& solver) {
   for (const std::string& s : report.solvers)
     if (s == solver) return;
@@ -104,7 +93,7 @@ int main(int argc, char** argv) {
     bench::MatrixReport report;
     report.title = title;
     report.partial = true;
-    report.solvers = splitList(solvers);
+    report.solvers = bench::splitList(solvers);
     for (const std::string& input : inputs) {
       const bench::MatrixReport part = bench::readCsv(input);
       for (const bench::MatrixRow& row : part.rows) mergeRow(report, row);

@@ -3,10 +3,20 @@
 // table (rows scenario x source x sampler x spacing, a column per solver) and a heat map PNG
 // coloured by the displacement error against the reference FEM.
 
+#include <sstream>
 #include <string>
 #include <vector>
 
 namespace demnerf::bench {
+
+/// "a,b,,c" -> {a, b, c}: the matrix tools' comma lists (scenarios=, solvers=, ...).
+inline std::vector<std::string> splitList(const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream in(text);
+  for (std::string item; std::getline(in, item, ',');)
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
 
 /// One solver on one particle cloud.
 struct MatrixCell {

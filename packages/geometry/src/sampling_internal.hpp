@@ -2,6 +2,8 @@
 // Pieces the three samplers share (not part of the public API).
 
 #include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
 #include <random>
 #include <vector>
 
@@ -47,6 +49,17 @@ class PointGrid {
   /// product with `direction`; the plain nearest point when none has.
   int nearestFacing(const Eigen::Vector3d& point, const Eigen::Vector3d& direction,
                     const std::vector<Eigen::Vector3d>& directions) const;
+  /// Calls visit(id) for every stored point closer than r (any r).
+  template <typename Visit>
+  void forEachWithin(const Eigen::Vector3d& point, double r, Visit&& visit) const {
+    const Eigen::Vector3i c = cellOf(point);
+    const int rings = static_cast<int>(std::ceil(r / cell_));
+    for (int z = std::max(0, c.z() - rings); z <= std::min(dims_.z() - 1, c.z() + rings); ++z)
+      for (int y = std::max(0, c.y() - rings); y <= std::min(dims_.y() - 1, c.y() + rings); ++y)
+        for (int x = std::max(0, c.x() - rings); x <= std::min(dims_.x() - 1, c.x() + rings); ++x)
+          for (int id = head_[cellIndex({x, y, z})]; id >= 0; id = next_[id])
+            if ((points_[id] - point).squaredNorm() < r * r) visit(id);
+  }
   const Eigen::Vector3d& point(int id) const { return points_[id]; }
   std::size_t size() const { return points_.size(); }
 

@@ -19,7 +19,6 @@
 //   average out, a true edge (90 deg) stays sharp, and on a flat face every triangle has the
 //   same normal, so exact boxes keep theirs bit for bit.
 #include <cmath>
-#include <unordered_map>
 
 #include "sampling_internal.hpp"
 
@@ -30,47 +29,18 @@ constexpr double kConeCosine = 0.5;  ///< cos 60 deg: triangles of the same face
 constexpr int kMeanShiftSteps = 3;
 constexpr double kSolidShare = 0.6;  ///< above a concave edge's half, below a crack's
 
-/// Face centroids in cubic buckets, for the faces within a radius of a point.
-class FaceBuckets {
- public:
-  FaceBuckets(const PreparedMesh& prepared, double cell) : cell_(cell) {
-    const auto& m = prepared.mesh;
-    centroids_.reserve(m.faces.size());
-    for (std::size_t f = 0; f < m.faces.size(); ++f) {
-      const auto& idx = m.faces[f];
-      centroids_.push_back((m.vertices[idx[0]] + m.vertices[idx[1]] + m.vertices[idx[2]]) / 3.0);
-      buckets_[key(cellOf(centroids_.back()))].push_back(static_cast<int>(f));
-    }
-  }
-  template <typename Visit>
-  void within(const Eigen::Vector3d& x, double radius, Visit&& visit) const {
-    const Eigen::Vector3i c = cellOf(x);
-    const int rings = static_cast<int>(std::ceil(radius / cell_));
-    for (int dz = -rings; dz <= rings; ++dz)
-      for (int dy = -rings; dy <= rings; ++dy)
-        for (int dx = -rings; dx <= rings; ++dx) {
-          const auto it = buckets_.find(key(c + Eigen::Vector3i(dx, dy, dz)));
-          if (it == buckets_.end()) continue;
-          for (int f : it->second)
-            if ((centroids_[f] - x).squaredNorm() < radius * radius) visit(f);
-        }
-  }
+/// The faces' centroids, in face order (a point's id is its face).
+PointGrid faceCentroids(const PreparedMesh& prepared, double cell) {
+  const auto& m = prepared.mesh;
+  PointGrid grid(prepared.bounds(), cell);
+  for (const auto& idx : m.faces) grid.insert((m.vertices[idx[0]] + m.vertices[idx[1]] + m.vertices[idx[2]]) / 3.0);
+  return grid;
+}
 
- private:
-  Eigen::Vector3i cellOf(const Eigen::Vector3d& x) const { return (x / cell_).array().floor().cast<int>(); }
-  static long long key(const Eigen::Vector3i& c) {
-    return ((static_cast<long long>(c.z()) & 0x1fffff) << 42) | ((static_cast<long long>(c.y()) & 0x1fffff) << 21) |
-           (static_cast<long long>(c.x()) & 0x1fffff);
-  }
-  double cell_;
-  std::vector<Eigen::Vector3d> centroids_;
-  std::unordered_map<long long, std::vector<int>> buckets_;
-};
-
-Eigen::Vector3d patchNormal(const PreparedMesh& prepared, const FaceBuckets& buckets, const Eigen::Vector3d& x,
+Eigen::Vector3d patchNormal(const PreparedMesh& prepared, const PointGrid& centroids, const Eigen::Vector3d& x,
                             int face, double radius) {
   std::vector<int> near{face};
-  buckets.within(x, radius, [&](int f) {
+  centroids.forEachWithin(x, radius, [&](int f) {
     if (f != face) near.push_back(f);
   });
   const Eigen::Vector3d& own = prepared.normals[face];
@@ -111,12 +81,12 @@ bool solidInFront(const PreparedMesh& prepared, const Eigen::Vector3d& x, const 
 SurfaceFrames surfaceFrames(const PreparedMesh& prepared, const SampleSet& set, double spacing) {
   SurfaceFrames out;
   const double radius = 0.5 * spacing;
-  const FaceBuckets buckets(prepared, radius);
+  const PointGrid centroids = faceCentroids(prepared, radius);
   out.normals.reserve(set.surface.size());
   out.crack_wall.reserve(set.surface.size());
   for (std::size_t s = 0; s < set.surface.size(); ++s) {
     const int face = set.surface_faces[s];
-    out.normals.push_back(patchNormal(prepared, buckets, set.surface[s], face, radius));
+    out.normals.push_back(patchNormal(prepared, centroids, set.surface[s], face, radius));
     out.crack_wall.push_back(solidInFront(prepared, set.surface[s], prepared.normals[face], spacing));
   }
   return out;
