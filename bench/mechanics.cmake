@@ -64,10 +64,18 @@ if(NOT COMMAND demnerf_mechanics_matrix_bench)
     set_target_properties(mechanics_mlp PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin/bench")
     # mechanics_mlp_fit: what the MLP of `--method mlp` can represent (a least-squares fit to the
     # reference FEM), and the DEM's check and training started from that fit.
-    add_executable(mechanics_mlp_fit ${DEMNERF_ROOT_DIR}/bench/mechanics_mlp_fit.cpp ${DEMNERF_ROOT_DIR}/bench/mechanics_matrix_cases.cpp)
+    add_executable(mechanics_mlp_fit ${DEMNERF_ROOT_DIR}/bench/mechanics_mlp_fit.cpp ${DEMNERF_ROOT_DIR}/bench/mechanics_mlp_torch.cpp
+                   ${DEMNERF_ROOT_DIR}/bench/mechanics_matrix_cases.cpp)
     target_link_libraries(mechanics_mlp_fit PRIVATE demnerf_mechanics demnerf_geometry demnerf_render)
     target_compile_definitions(mechanics_mlp_fit PRIVATE DEMNERF_ROOT="${DEMNERF_ROOT_DIR}")
     set_target_properties(mechanics_mlp_fit PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin/bench")
+    # mechanics_mlp_gn: a Gauss-Newton (energy natural gradient) optimiser of the same network and
+    # energy, against the product's L-BFGS (issue 13, the T-bar twist).
+    add_executable(mechanics_mlp_gn ${DEMNERF_ROOT_DIR}/bench/mechanics_mlp_gn.cpp ${DEMNERF_ROOT_DIR}/bench/mechanics_mlp_torch.cpp
+                   ${DEMNERF_ROOT_DIR}/bench/mechanics_matrix_cases.cpp)
+    target_link_libraries(mechanics_mlp_gn PRIVATE demnerf_mechanics demnerf_geometry demnerf_render)
+    target_compile_definitions(mechanics_mlp_gn PRIVATE DEMNERF_ROOT="${DEMNERF_ROOT_DIR}")
+    set_target_properties(mechanics_mlp_gn PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin/bench")
     # mechanics_quadrature_probe: the default DEM's quadrature, load, held faces and inside test on
     # one scenario's matrix clouds, against the exact surface (no solve).
     add_executable(mechanics_quadrature_probe ${DEMNERF_ROOT_DIR}/bench/mechanics_quadrature_probe.cpp

@@ -39,160 +39,13 @@
 #include "mechanics_bench_common.hpp"
 #include "mechanics_matrix_cases.hpp"
 #include "mechanics_matrix_reference.hpp"
+#include "mechanics_mlp_torch.hpp"
 
 namespace dm = demnerf::mechanics;
-namespace core = demnerf::core;
-namespace geo = demnerf::geometry;
 namespace bench = demnerf::bench;
-using Eigen::Vector3d;
-using torch::Tensor;
+using namespace demnerf::bench::mlp;
 
 namespace {
-
-using Arguments = std::map<std::string, std::string>;
-
-std::string text(const Arguments& a, const char* key, const std::string& fallback) {
-  const auto it = a.find(key);
-  return it != a.end() ? it->second : fallback;
-}
-
-Tensor rows(const std::vector<Vector3d>& v) {
-  Tensor t = torch::empty({static_cast<long>(v.size()), 3}, torch::kFloat64);
-  auto acc = t.accessor<double, 2>();
-  for (std::size_t i = 0; i < v.size(); ++i)
-    for (int k = 0; k < 3; ++k) acc[i][k] = v[i](k);
-  return t;
-}
-
-Tensor matrices(const std::vector<Eigen::Matrix3d>& v) {
-  Tensor t = torch::empty({static_cast<long>(v.size()), 3, 3}, torch::kFloat64);
-  auto acc = t.accessor<double, 3>();
-  for (std::size_t i = 0; i < v.size(); ++i)
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) acc[i][r][c] = v[i](r, c);
-  return t;
-}
-
-double relL2(const Tensor& u, const Tensor& ref) { return ((u - ref).norm() / ref.norm()).item<double>(); }
-
-Tensor green(const Tensor& du) {
-  const Tensor F = torch::eye(3, torch::kFloat64).unsqueeze(0) + du;
-  return 0.5 * (torch::matmul(F.transpose(1, 2), F) - torch::eye(3, torch::kFloat64).unsqueeze(0));
-}
-
-// The DEM network in double: z = W_L tanh(...tanh(W_0 (X - c) / h + b_0)...) + b_L.
-struct Net {
-  std::vector<Tensor> W, b;
-  Tensor center, inv_half;
-  Tensor z(const Tensor& x) const {
-    Tensor h = (x - center) * inv_half;
-    for (std::size_t l = 0; l + 1 < W.size(); ++l) h = torch::tanh(torch::addmm(b[l], h, W[l].t()));
-    return torch::addmm(b.back(), h, W.back().t());
-  }
-  // z and its X-gradient [n, i, k] = dz_i / dX_k, forward mode.
-  std::pair<Tensor, Tensor> withGradient(const Tensor& x) const {
-    Tensor h = (x - center) * inv_half;
-    Tensor dh = torch::diag(inv_half.squeeze(0)).unsqueeze(0).expand({x.size(0), 3, 3});  // [n, k, in]
-    for (std::size_t l = 0; l + 1 < W.size(); ++l) {
-      h = torch::tanh(torch::addmm(b[l], h, W[l].t()));
-      dh = (1 - h * h).unsqueeze(1) * torch::matmul(dh, W[l].t());
-    }
-    return {torch::addmm(b.back(), h, W.back().t()), torch::matmul(dh, W.back().t()).transpose(1, 2)};
-  }
-  std::vector<Tensor> parameters() const {
-    std::vector<Tensor> p;
-    for (std::size_t l = 0; l < W.size(); ++l) p.push_back(W[l]), p.push_back(b[l]);
-    return p;
-  }
-  void set(const dm::DemState& st) {
-    torch::NoGradGuard guard;
-    for (std::size_t l = 0; l < st.weights.size(); ++l) {
-      const Eigen::MatrixXd Wt = st.weights[l].transpose();  // column-major: its buffer is W row-major
-      const Tensor w = torch::from_blob(const_cast<double*>(Wt.data()), {st.weights[l].rows(), st.weights[l].cols()},
-                                        torch::kFloat64);
-      const Tensor bias = torch::from_blob(const_cast<double*>(st.biases[l].data()), {st.biases[l].size()}, torch::kFloat64);
-      if (W.size() <= l) W.push_back(w.clone().requires_grad_(true)), b.push_back(bias.clone().requires_grad_(true));
-      else W[l].copy_(w), b[l].copy_(bias);
-    }
-  }
-  void into(dm::DemState& st) const {
-    for (std::size_t l = 0; l < W.size(); ++l) {
-      const Tensor w = W[l].detach().contiguous(), bias = b[l].detach().contiguous();
-      st.weights[l] = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
-          w.data_ptr<double>(), w.size(0), w.size(1));
-      st.biases[l] = Eigen::Map<const Eigen::VectorXd>(bias.data_ptr<double>(), bias.size(0));
-    }
-  }
-};
-
-// One matrix cloud with its reference and the solver's view of it (box, lift at the particles).
-struct Setup {
-  Arguments a;
-  std::string name;
-  core::Scenario scenario;
-  core::ParticleCloud cloud;
-  Tensor ref, x, g, D;
-  Vector3d lo, hi;
-  double length = 1.0, s = 1.0;  // s: the output scale of the fit, max |u_ref|
-  std::vector<dm::HeldFace> held;
-};
-
-Setup setUp(const Arguments& a) {
-  Setup su;
-  su.a = a;
-  su.name = text(a, "scenario", "tbar_twist");
-  bench::MatrixCase mc;
-  for (const bench::MatrixCase& c : bench::matrixCases())
-    if (c.name == su.name) mc = c;
-  if (mc.name.empty()) throw core::Error("unknown scenario '" + su.name + "'");
-  su.scenario = core::loadScenario(std::string(DEMNERF_ROOT) + "/config/scenarios/" + su.name + ".yaml");
-  geo::SamplerConfig sampler;
-  sampler.method = geo::parseSamplingMethod(text(a, "sampler", "grid"));
-  sampler.spacing = mc.smallest / std::stoi(text(a, "div", "10"));
-  sampler.seed = static_cast<std::uint64_t>(std::stoi(text(a, "seed", "1")));
-  su.cloud = geo::sampleParticles(mc.surface(), sampler);
-  const core::ResultField cached = core::readResult(text(a, "ref", ".") + "/reference_" + su.name + "_exact_fine.ply");
-  const std::optional<core::ResultField> at = bench::cachedAt(cached, su.cloud);
-  if (!at) throw core::Error("the reference does not hold these particles");
-  su.ref = rows(at->displacements);
-  su.s = su.ref.abs().max().item<double>();
-  su.lo = su.hi = su.cloud.positions[0];
-  for (const Vector3d& p : su.cloud.positions) su.lo = su.lo.cwiseMin(p), su.hi = su.hi.cwiseMax(p);
-  su.length = (su.hi - su.lo).maxCoeff();
-  su.held = dm::heldFaces(su.scenario, su.cloud);
-  const dm::DirichletLift lift = dm::dirichletLift(su.scenario, su.cloud.positions, su.length, &su.held);
-  su.x = rows(su.cloud.positions);
-  su.g = rows(lift.g);
-  su.D = rows(lift.D);
-  return su;
-}
-
-// The MLP's cell quadrature as cellDraw() builds it (2 Gauss points per axis, cut cells
-// moment-fitted whole), with the lift there.
-struct Quadrature {
-  dm::CellQuadrature q;
-  Tensor x, w, g, D, grad_g, grad_D;  // w normalised to sum 1
-  Tensor du(const Net& net, double s) const {
-    const auto [z, dz] = net.withGradient(x);
-    return grad_g + grad_D * (s * z).unsqueeze(2) + D.unsqueeze(2) * s * dz;
-  }
-};
-
-Quadrature mlpQuadrature(const Setup& su) {
-  Quadrature out;
-  const Vector3d margin = Vector3d::Constant(0.5 * std::stod(text(su.a, "spacing", "0.006")));
-  const dm::BsplineGrid cells(su.lo - margin, su.hi + margin, std::stod(text(su.a, "cell", "0.01")), 1);
-  out.q = dm::cellQuadrature(su.cloud, cells, dm::CellQuadratureConfig{2, 0});
-  const dm::DirichletLift lift = dm::dirichletLift(su.scenario, out.q.points, su.length, &su.held);
-  out.x = rows(out.q.points);
-  out.w = torch::tensor(out.q.weights, torch::kFloat64);
-  out.w = out.w / out.w.sum();
-  out.g = rows(lift.g);
-  out.D = rows(lift.D);
-  out.grad_g = matrices(lift.grad_g);
-  out.grad_D = matrices(lift.grad_D);
-  return out;
-}
 
 // probe=1: the quadrature's volume and the leg's polar moment (T-bar), the loads' resultants.
 void printProbe(const Setup& su, const Quadrature& qu) {
@@ -210,25 +63,6 @@ void printProbe(const Setup& su, const Quadrature& qu) {
   for (std::size_t i = 0; i < su.cloud.size(); ++i)
     if (su.cloud.areas[i] > 0) f += su.cloud.areas[i] * t[i], m += su.cloud.positions[i].cross(su.cloud.areas[i] * t[i]);
   std::printf("loads on the particles: F (%.4g %.4g %.4g), M (%.5g %.5g %.5g)\n", f(0), f(1), f(2), m(0), m(1), m(2));
-}
-
-// Strain energy on the quadrature (compressible Neo-Hookean, as the DEM's kernel) and the work
-// of the particle loads on u at the particles: the DEM's potential, computed independently.
-void printEnergy(const char* what, const Setup& su, const Quadrature& qu, const Tensor& du, const Tensor& u_particles) {
-  const Tensor F = torch::eye(3, torch::kFloat64).unsqueeze(0) + du;
-  const Tensor lnJ = torch::log(torch::det(F));
-  const double mu = su.scenario.material.mu(), lambda = su.scenario.material.lambda();
-  const Tensor psi = 0.5 * mu * (F.pow(2).sum({1, 2}) - 3) - mu * lnJ + 0.5 * lambda * lnJ * lnJ;
-  const Tensor weights = torch::tensor(qu.q.weights, torch::kFloat64);
-  const double U = (weights * psi).sum().item<double>();
-  const double bar = (weights * psi * (qu.x.select(1, 2) > 0.24)).sum().item<double>();
-  const std::vector<Vector3d> t = dm::particleTractions(su.scenario, su.cloud);
-  double W = 0;
-  auto acc = u_particles.accessor<double, 2>();
-  for (std::size_t i = 0; i < su.cloud.size(); ++i)
-    if (su.cloud.areas[i] > 0)
-      for (int k = 0; k < 3; ++k) W += su.cloud.areas[i] * t[i](k) * acc[i][k];
-  std::printf("ENERGY of %s: strain %.6g J (z > 0.24: %.6g), work %.6g J, potential %.6g J\n", what, U, bar, W, U - W);
 }
 
 // The Green strain's error of a field against a target's, over the whole and in three z bands.
@@ -298,39 +132,6 @@ void fit(Net& net, const Setup& su, const Quadrature& qu, int iterations) {
   printStrainErrors(su, qu, qu.du(net, s), dU);
 }
 
-// The fitted field as the DEM's state: its check, and the DEM's training from it.
-void demFromFit(const Setup& su, const Net& net, dm::DemState st, double cpu0) {
-  net.into(st);
-  st.energy_scale *= (su.s / st.output_scale) * (su.s / st.output_scale);
-  st.output_scale = su.s;
-  st.fraction = 1.0;
-  st.rescaled = true;
-  if (!text(su.a, "save", "").empty()) dm::saveDemModel(dm::DemSolver::fromState(st), text(su.a, "save", ""));
-  st.config.lbfgs.iterations = std::stoi(text(su.a, "dem", "0"));
-  st.config.network.fused = text(su.a, "fused", "1") != "0";
-  dm::DemSolver dem = dm::DemSolver::fromState(st);
-  dm::SolveControl control;
-  control.time_limit = std::stod(text(su.a, "time_limit", "600"));
-  double energy = std::nan("");
-  control.progress_interval = 0.0;
-  control.progress = [&](const dm::SolveProgress& p) { energy = p.energy; };
-  dem.setControl(control);
-  const auto reading = [&](const char* what, int it) {
-    std::printf("%s it %5d  cpu %7.2f s  rel L2 %.3f %%  energy %.6g J\n", what, it, bench::processCpuSeconds() - cpu0,
-                100 * relL2(rows(dem.predict(su.cloud.positions)), su.ref), energy);
-  };
-  dem.setProgressCallback([&](int it) { reading("DEM", it); }, std::stoi(text(su.a, "every", "250")));
-  std::string verdict = "passes the check";
-  dm::DemReport report;
-  try {
-    report = dem.solve();
-  } catch (const std::exception& e) {
-    verdict = std::string("REFUSED: ") + e.what();
-  }
-  reading("DEM end", report.iterations);
-  std::printf("RESULT DEM energy %.6g J: %s\n", report.energy, verdict.c_str());
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -362,6 +163,6 @@ int main(int argc, char** argv) {
                 bench::processCpuSeconds() - cpu0);
     printEnergy("the fit", su, qu, qu.du(net, su.s), u);
   }
-  demFromFit(su, net, st, cpu0);
+  demFromFit(su, net, st, su.s, cpu0);
   return 0;
 }

@@ -29,7 +29,8 @@ std::vector<Field> networkFields(DemNetworkConfig& c) {
 
 std::vector<Field> trainingFields(DemConfig& c) {
   using B = DemConfig::Boundary;
-  const std::string b = "dem.boundary", a = "dem.adam", n = "dem.output_newton", l = "dem.lbfgs";
+  const std::string b = "dem.boundary", a = "dem.adam", n = "dem.output_newton", l = "dem.lbfgs",
+                    gn = "dem.gauss_newton";
   return {
       choice<B>(b, "kind", c.boundary.kind, {{"exact", B::kExact}, {"penalty", B::kPenalty}},
                 "fixtures held exactly, u = g + D z, or by the paper's penalty W_u MSE_u"),
@@ -55,6 +56,11 @@ std::vector<Field> trainingFields(DemConfig& c) {
       number(l, "tolerance", c.lbfgs.tolerance, 0, false, kInf, "L-BFGS stops when the loss changes less than this"),
       number(l, "cell_spacings", c.lbfgs.cell_spacings, 0, false, kInf,
              "sampled L-BFGS on Gauss points in cells of this many particle spacings (0: the particles)"),
+      integer(gn, "steps", c.gauss_newton.steps, 0, kMany,
+              "Gauss-Newton steps after the L-BFGS, MLP alone on the cell quadrature (0: off)"),
+      integer(gn, "sample", c.gauss_newton.sample, 1, kMany, "Gauss points the Gauss-Newton matrix is formed on"),
+      number(gn, "damping", c.gauss_newton.damping, 0, true, kInf,
+             "initial Levenberg-Marquardt damping, relative to the matrix's mean diagonal"),
   };
 }
 

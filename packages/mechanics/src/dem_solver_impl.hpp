@@ -125,6 +125,9 @@ struct DemSolver::Impl {
   const JitterDraw& cellDraw();
   const JitterDraw& shiftedCellDraw();
   JitterDraw cellQuadratureDraw(double shift);
+  // dem_gauss_newton.cpp: DemConfig::gauss_newton's steps on the cell quadrature (fused kernel).
+  bool gaussNewtonAvailable() const;
+  void gaussNewton(double scale, int& iterations);
   void rescaleOutput(double scale);
   std::vector<Tensor> snapshot() const { return torch_support::snapshot(parameters()); }
   void restore(const std::vector<Tensor>& s) { torch_support::restore(parameters(), s); }

@@ -170,6 +170,7 @@ bool DemSolver::Impl::train(double scale, int& iterations, DemReport& report) {
       trainWithSampledLbfgs(scale, iterations);
     else polishWithLbfgs(scale, iterations, report);
   }
+  if (config.gauss_newton.steps > 0) gaussNewton(scale, iterations);
   torch::NoGradGuard guard;
   double jmin = 0;
   const Tensor l = loss(scale, nullptr, &jmin);

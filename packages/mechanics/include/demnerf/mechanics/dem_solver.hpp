@@ -79,6 +79,19 @@ struct DemLbfgsConfig {
   double cell_spacings = 0.0;
 };
 
+/// Gauss-Newton steps after the L-BFGS, the MLP alone (issue 13: L-BFGS stalls on the T-bar twist,
+/// whose displacement gradient is nearly all rotation). G = sum_q w_q J_q^T C J_q in the network's
+/// parameters, J_q the Jacobian of the Green strain at a Gauss point of the cell quadrature (a
+/// rigid rotation costs nothing), C the material's tangent at zero strain; formed each step on
+/// `sample` Gauss points drawn at random; the step solves (G + mu mean(diag G) I) d = -grad, mu
+/// Levenberg-Marquardt on the true energy's decrease. Needs the fused kernel's MLP (float32, tanh,
+/// no grid, not parametric), the exact boundary and lbfgs.cell_spacings > 0.
+struct DemGaussNewtonConfig {
+  int steps = 0;          ///< steps per load step; 0: off (0)
+  int sample = 1000;      ///< Gauss points G is formed on, drawn afresh each step (1000)
+  double damping = 1e-3;  ///< mu's start, relative to G's mean diagonal (1e-3)
+};
+
 /// The B-spline feature grid u = g + D o c (z(X) + N(X) C), C solved by Newton (exact boundary,
 /// not parametric). Its cell: `cell` if > 0, else `spacings` particle spacings if > 0, else
 /// (V / body_cells)^(1/3) if body_cells > 0 (never finer than the particles), else no grid.
@@ -130,6 +143,7 @@ struct DemConfig {
   DemAdamConfig adam;
   DemOutputNewtonConfig output_newton;
   DemLbfgsConfig lbfgs;
+  DemGaussNewtonConfig gauss_newton;
   DemGridConfig grid;
   DemParametricConfig parametric;
   int load_steps = 0;           ///< 0: the scenario's, or 1 with the feature grid (a failed step is halved)

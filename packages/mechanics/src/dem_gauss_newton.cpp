@@ -1,0 +1,159 @@
+// Gauss-Newton steps for the MLP-only DEM (DemConfig::gauss_newton, issue 13). L-BFGS stalls on
+// the T-bar twist at 16-17 % rel. L2 because the twist's displacement gradient is nearly all
+// rotation and its strain a few per cent of it: a small error in the gradient is a large error in
+// the strain, and a scalar-seeded quasi-Newton history does not resolve that (docs/
+// dem_feature_grid.md). The step here is preconditioned by the metric the energy itself puts on
+// the parameters, G = sum_q w_q J_q^T C J_q with J_q = dE_q/dtheta the Jacobian of the Green
+// strain (a rigid rotation of the field costs nothing in it) and C the material's tangent at zero
+// strain; left out of the Hessian are the stress term S : d2E and the network's own curvature.
+// The dead loads are linear in u and add nothing. The gradient and every trial energy are the
+// fused kernel's on the whole cell quadrature; G is formed on a random draw of its Gauss points.
+#include <torch/torch.h>
+
+#include <algorithm>
+#include <cmath>
+#include <iostream>
+#include <limits>
+#include <numeric>
+
+#include "demnerf/core/error.hpp"
+#include "dem_solver_impl.hpp"
+
+namespace demnerf::mechanics {
+
+using torch::Tensor;
+
+namespace {
+
+// Past this damping (relative to G's mean diagonal) the step is a tiny gradient step: stop.
+constexpr double kMaxDamping = 1e8;
+
+struct StrainMetric {
+  double mu = 0.0, lambda = 0.0;  // C = lambda I (x) I + 2 mu I on symmetric strains
+  double load_scale = 1.0, out_scale = 1.0, energy_scale = 1.0;
+};
+
+// The rows A of G = A^T A at the drawn points (their quadrature weights times `weight_scale`): per
+// point the Jacobians of sqrt(lambda w) tr E and sqrt(2 mu w) E_ij (i <= j, off-diagonals x sqrt 2),
+// so that |A d|^2 = sum_q w_q dE_q : C : dE_q, over the energy scale (the loss's units). Each
+// point gets its own copy of the weights, so that autograd's gradients in them are per point.
+Tensor strainJacobianRows(const DisplacementMlp& net, const Tensor& x, const Tensor (&lift)[4], const Tensor& w,
+                          const StrainMetric& m) {
+  const long n = x.size(0), layers = static_cast<long>(net.weights().size());
+  std::vector<Tensor> leaves;
+  for (long l = 0; l < layers; ++l) {
+    const Tensor& W = net.weights()[l];
+    leaves.push_back(W.detach().unsqueeze(0).expand({n, W.size(0), W.size(1)}).clone().requires_grad_());
+    leaves.push_back(net.biases()[l].detach().unsqueeze(0).expand({n, W.size(0)}).clone().requires_grad_());
+  }
+  Tensor h = (x - net.center()) * net.invHalf();
+  Tensor dh = torch::diag(net.invHalf().reshape({3})).unsqueeze(0).expand({n, 3, 3});  // [n, k, input]
+  for (long l = 0; l + 1 < layers; ++l) {
+    const Tensor& W = leaves[2 * l];
+    h = torch::tanh(torch::bmm(W, h.unsqueeze(2)).squeeze(2) + leaves[2 * l + 1]);
+    dh = (1 - h * h).unsqueeze(1) * torch::bmm(dh, W.transpose(1, 2));
+  }
+  const Tensor& Wo = leaves[2 * layers - 2];
+  const Tensor z = (torch::bmm(Wo, h.unsqueeze(2)).squeeze(2) + leaves[2 * layers - 1]) * m.out_scale;
+  const Tensor dz = torch::bmm(dh, Wo.transpose(1, 2)).transpose(1, 2) * m.out_scale;  // [n, i, k]
+  const Tensor du = m.load_scale * lift[1] + lift[3] * z.unsqueeze(2) + lift[2].unsqueeze(2) * dz;
+  const Tensor F = torch::eye(3, du.options()).unsqueeze(0) + du;
+  const Tensor E = 0.5 * (torch::matmul(F.transpose(1, 2), F) - torch::eye(3, du.options()).unsqueeze(0));
+  const Tensor ws = w / m.energy_scale;
+  std::vector<Tensor> r{torch::sqrt(m.lambda * ws) * E.diagonal(0, 1, 2).sum(1)};
+  for (int i = 0; i < 3; ++i)
+    for (int j = i; j < 3; ++j)
+      r.push_back(torch::sqrt(2 * m.mu * ws) * (i == j ? 1.0 : std::sqrt(2.0)) * E.select(1, i).select(1, j));
+  std::vector<Tensor> blocks;
+  for (const Tensor& rk : r) {
+    const std::vector<Tensor> g = torch::autograd::grad({rk.sum()}, leaves, {}, true);
+    std::vector<Tensor> columns;
+    for (const Tensor& gi : g) columns.push_back(gi.reshape({n, -1}));
+    blocks.push_back(torch::cat(columns, 1));
+  }
+  return torch::cat(blocks, 0);
+}
+
+// The parameters (weights and biases layer by layer) or their gradients as one double vector.
+Tensor flatten(const DisplacementMlp& net, bool gradients) {
+  std::vector<Tensor> parts;
+  for (std::size_t l = 0; l < net.weights().size(); ++l)
+    for (const Tensor& p : {net.weights()[l], net.biases()[l]}) parts.push_back((gradients ? p.grad() : p).reshape({-1}));
+  return torch::cat(parts).to(torch::kFloat64);
+}
+
+void assign(DisplacementMlp& net, const Tensor& theta) {
+  torch::NoGradGuard guard;
+  long at = 0;
+  for (std::size_t l = 0; l < net.weights().size(); ++l)
+    for (Tensor* p : {&net.weights()[l], &net.biases()[l]}) {
+      p->copy_(theta.slice(0, at, at + p->numel()).view_as(*p));
+      at += p->numel();
+    }
+}
+
+}  // namespace
+
+bool DemSolver::Impl::gaussNewtonAvailable() const {
+  return fusedLossAvailable() && config.boundary.kind == DemConfig::Boundary::kExact && config.lbfgs.cell_spacings > 0;
+}
+
+// config.gauss_newton.steps Levenberg-Marquardt Gauss-Newton steps on the cell quadrature: the
+// damping mu falls after a step the model predicted well and rises after a poor or rejected one.
+void DemSolver::Impl::gaussNewton(double scale, int& iterations) {
+  if (!gaussNewtonAvailable())
+    throw core::Error("dem.gauss_newton needs the MLP alone through the fused kernel (float32, tanh, no feature "
+                      "grid, not parametric), boundary.kind exact and lbfgs.cell_spacings > 0");
+  const JitterDraw& draw = cellDraw();
+  const long nq = draw.x.size(0), m = std::min<long>(config.gauss_newton.sample, nq);
+  const bool decoupled = scenario.material.model == "neo_hookean_decoupled";
+  StrainMetric metric;
+  metric.mu = material->mu();
+  // The decoupled law's zero-strain tangent is kappa I (x) I + 2 mu (I - I (x) I / 3).
+  metric.lambda = std::max(0.0, decoupled ? material->kappa() - 2.0 * metric.mu / 3.0 : scenario.material.lambda());
+  metric.load_scale = scale;
+  std::vector<long> order(nq);
+  std::iota(order.begin(), order.end(), 0L);
+  const double total_weight = draw.vol.sum().item<double>();
+  double damping = config.gauss_newton.damping;
+  for (int step = 0; step < config.gauss_newton.steps && damping < kMaxDamping; ++step) {
+    balanceOutput(scale);  // a no-op once balanced; GN alone starts at the a-priori amplitude
+    metric.out_scale = out_scale;
+    metric.energy_scale = energy_scale;
+    double energy = 0.0, jm = 0.0;
+    const double e0 = fusedLoss(scale, draw, true, &energy, &jm).item<double>();
+    if (!std::isfinite(e0)) return;
+    double accepted = energy;
+    const Tensor grad = flatten(net, true), theta = flatten(net, false);
+    for (long i = 0; i < m; ++i) std::swap(order[i], order[i + std::uniform_int_distribution<long>(0, nq - 1 - i)(rng)]);
+    const Tensor idx = torch::tensor(std::vector<long>(order.begin(), order.begin() + m), torch::kLong);
+    const Tensor w = draw.vol.index_select(0, idx);
+    const Tensor lift[4] = {draw.lift[0].index_select(0, idx), draw.lift[1].index_select(0, idx),
+                            draw.lift[2].index_select(0, idx), draw.lift[3].index_select(0, idx)};
+    const Tensor A = strainJacobianRows(net, draw.x.index_select(0, idx), lift, w * (total_weight / w.sum()), metric);
+    const Tensor G = torch::mm(A.t(), A).to(torch::kFloat64);
+    const double diagonal = G.diagonal().mean().item<double>();
+    const Tensor eye = torch::eye(G.size(0), G.options());
+    for (;;) {  // until the energy falls, or the damping says the model is not to be trusted
+      const Tensor d = torch::cholesky_solve(-grad.unsqueeze(1), torch::linalg_cholesky(G + damping * diagonal * eye)).squeeze(1);
+      const double predicted = -(grad.dot(d) + 0.5 * d.dot(torch::mv(G, d))).item<double>();
+      assign(net, theta + d);
+      const double e1 = fusedLoss(scale, draw, false, &energy, &jm).item<double>();
+      const double rho = (e0 - e1) / predicted;
+      if (std::isfinite(e1) && rho > 0) {
+        accepted = energy;
+        damping *= rho > 0.75 ? 1.0 / 3.0 : rho < 0.25 ? 2.0 : 1.0;
+        break;
+      }
+      damping *= 4.0;
+      assign(net, theta);
+      if (damping >= kMaxDamping) break;
+    }
+    if (config.verbose)
+      std::cerr << "dem: Gauss-Newton step " << step + 1 << " energy " << accepted << " J, damping " << damping << "\n";
+    reportProgress(++iterations);
+    tick("gauss_newton", scale, iterations, accepted, std::numeric_limits<double>::quiet_NaN());
+  }
+}
+
+}  // namespace demnerf::mechanics
