@@ -143,15 +143,20 @@ void printTorqueShare(const char* what, const std::vector<Vector3d>& points, con
 // boundaryLoadQuadrature's points.
 void printMeshLoads(const core::Scenario& scenario, const dm::TetMesh& tets) {
   const std::vector<dm::BoundaryFace> boundary = dm::boundaryFaces(tets);
+  Vector3d moment = Vector3d::Zero();  // of all loads about the origin (the T-bar's couple)
   for (const core::Load& load : scenario.loads) {
     std::vector<Vector3d> points, forces;
     std::vector<double> weights;
     for (const dm::BoundaryLoadPoint& q : dm::boundaryLoadQuadrature(tets, boundary, load.region))
       points.push_back(q.x), weights.push_back(q.weight);
     const dm::WrenchTraction t = dm::spreadWrench(points, weights, load.force, load.torque, load.name);
-    for (std::size_t q = 0; q < points.size(); ++q) forces.push_back(weights[q] * t.at(points[q]));
+    for (std::size_t q = 0; q < points.size(); ++q) {
+      forces.push_back(weights[q] * t.at(points[q]));
+      moment += points[q].cross(forces.back());
+    }
     printTorqueShare("loads (FEM)", points, forces);
   }
+  std::printf("    loads (FEM): M (%.5g %.5g %.5g) N m about the origin\n", moment(0), moment(1), moment(2));
 }
 
 void printLoads(const core::Scenario& scenario, const core::ParticleCloud& cloud, double step) {
