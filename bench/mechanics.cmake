@@ -83,6 +83,14 @@ if(NOT COMMAND demnerf_mechanics_matrix_bench)
     target_link_libraries(mechanics_quadrature_probe PRIVATE demnerf_mechanics demnerf_geometry demnerf_render)
     target_compile_definitions(mechanics_quadrature_probe PRIVATE DEMNERF_ROOT="${DEMNERF_ROOT_DIR}")
     set_target_properties(mechanics_quadrature_probe PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin/bench")
+    # mechanics_body_probe: the body, grid and loads the default DEM gets from clouds of a given
+    # surface (a NeRF extraction), against the surface and the reference FEM's CGAL mesh (no solve).
+    add_executable(mechanics_body_probe ${DEMNERF_ROOT_DIR}/bench/mechanics_body_probe.cpp
+                                        ${DEMNERF_ROOT_DIR}/bench/mechanics_matrix_cases.cpp)
+    target_link_libraries(mechanics_body_probe PRIVATE demnerf_mechanics demnerf_geometry demnerf_render)
+    target_include_directories(mechanics_body_probe PRIVATE ${DEMNERF_ROOT_DIR}/packages/mechanics/src)
+    target_compile_definitions(mechanics_body_probe PRIVATE DEMNERF_ROOT="${DEMNERF_ROOT_DIR}")
+    set_target_properties(mechanics_body_probe PROPERTIES RUNTIME_OUTPUT_DIRECTORY "${CMAKE_BINARY_DIR}/bin/bench")
   endfunction()
 endif()
 demnerf_mechanics_matrix_bench()  # standalone mechanics build: only when render was added too
