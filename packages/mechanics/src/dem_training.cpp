@@ -300,7 +300,8 @@ void DemSolver::Impl::sampledLbfgsRun(double scale, int& iterations, int count, 
   const bool guard = cells && fused;
   double best_shifted = std::numeric_limits<double>::infinity();
   std::vector<Tensor> best;
-  int evaluations = 0;
+  int evaluations = 0, best_at = 0;
+  exploit_kept.clear();
   const auto shiftedEnergy = [&] {
     double energy = 0.0, jm = 0.0;
     fusedLoss(scale, shiftedCellDraw(), false, &energy, &jm);
@@ -309,7 +310,7 @@ void DemSolver::Impl::sampledLbfgsRun(double scale, int& iterations, int count, 
   const auto watch = [&] {
     if (!guard || evaluations++ % kGuardEvery != 0) return;
     const double energy = shiftedEnergy();
-    if (energy < best_shifted) best_shifted = energy, best = snapshot();
+    if (energy < best_shifted) best_shifted = energy, best = snapshot(), best_at = evaluations;
   };
   runSampledLbfgs(
       parameters(), count, cells ? count : config.lbfgs.sample_iterations, config.lbfgs.history,
@@ -331,9 +332,12 @@ void DemSolver::Impl::sampledLbfgsRun(double scale, int& iterations, int count, 
   if (!guard || best.empty()) return;
   const double final_energy = shiftedEnergy();
   if (final_energy > best_shifted + kGuardTolerance * std::abs(best_shifted)) {
-    if (config.verbose)
-      std::cerr << "dem: exploit guard: energy on the shifted points " << final_energy << " J, best " << best_shifted
-                << " J; keeping the best\n";
+    std::ostringstream why;
+    why << "its energy on a shifted copy of the Gauss points was lowest (" << best_shifted << " J) after " << best_at
+        << " of " << evaluations << " evaluations and then rose to " << final_energy
+        << " J (inf: the field inverts there) while the training points' energy kept falling";
+    exploit_kept = why.str();
+    if (config.verbose) std::cerr << "dem: exploit guard: " << exploit_kept << "; keeping the best\n";
     restore(best);
   }
 }
