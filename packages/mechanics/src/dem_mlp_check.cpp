@@ -190,10 +190,10 @@ void DemSolver::Impl::checkMlpAnswer(const MlpCheck& check) const {
     why << "the field inverts the material or is not finite between the particles (det F " << check.min_J
         << " at the check's quadrature points)";
   else if (!exploit_kept.empty())
-    // The state the guard kept is one the optimiser was still leaving: no stationary point of any
-    // quadrature's energy. On the self-weight block the training energy fell from -0.048 J to
-    // -3.5 J (FEM -0.0486 J) with the top 0.25 m down, folded between the Gauss points; the state
-    // kept was 3.7-5.4 % off, and the check's basis passed the 3.7 % one.
+    // The guard kept a state the field was still moving from when the exploit began: no stationary
+    // point of any quadrature's energy. On the self-weight block the training energy then fell from
+    // -0.048 J to -3.5 J (FEM -0.0486 J) with the top 0.25 m down, folded between the Gauss points;
+    // the state kept was 3.7-5.4 % off, and the check's basis passed the 3.7 % one.
     why << "the training exploited its Gauss points: " << exploit_kept
         << "; the state kept is where that happened, not a converged minimum";
   else if (!(check.correction <= kMlpCorrectionTolerance))
