@@ -10,6 +10,7 @@
 //   boundary=penalty|exact (over both)  ref=DIR (a mechanics_matrix out= dir whose
 //   reference_<scenario>_exact_fine.ply holds these particles; none: no rel. L2)
 //   every=25 (iterations between readings; 0: none)  time_limit=60  verbose=0|1
+//   energy=0|1 (1: the training energy on its Gauss points once a second)
 // Prints one line per reading and a summary line.
 
 #include <chrono>
@@ -116,6 +117,11 @@ int main(int argc, char** argv) {
   dm::DemSolver dem(cloud, scenario, config);
   dm::SolveControl control;
   control.time_limit = std::stod(text(a, "time_limit", "60"));
+  if (text(a, "energy", "0") != "0") {  // the training energy once a second: an exploit shows as it falling far
+    control.progress = [](const dm::SolveProgress& p) {
+      std::printf("  [%s, iteration %d: training energy %.6g J]\n", p.phase.c_str(), p.iteration, p.energy);
+    };
+  }
   dem.setControl(control);
   const auto start = std::chrono::steady_clock::now();
   const double cpu0 = bench::processCpuSeconds();

@@ -114,7 +114,7 @@ DemSolver::Impl::JitterDraw DemSolver::Impl::cellQuadratureDraw(double shift) {
   cq.boundary_levels = 0;  // cut cells moment-fitted whole: split, a thin body's cells held 8x the points
   cq.threads = config.threads;
   const CellQuadrature q = cellQuadrature(cloud, cells, cq);
-  const DirichletLift lift = dirichletLift(scenario, q.points, length, &held);
+  const DirichletLift lift = liftAt(q.points);
   std::vector<Eigen::Vector3d> body_forces(q.points.size());
   for (std::size_t i = 0; i < q.points.size(); ++i) body_forces[i] = q.weights[i] * scenario.body_force;
   JitterDraw draw;

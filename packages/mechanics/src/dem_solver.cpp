@@ -111,7 +111,7 @@ void DemSolver::Impl::orderBandLast(std::vector<long>& volume_particles) {
 DemSolver::Impl::LoadSizes DemSolver::Impl::setParticleSets() {
   const auto traction = particleTractions(scenario, cloud);
   const Dirichlet fixed = resolveHeldParticles(scenario, cloud, held);
-  const DirichletLift lift = dirichletLift(scenario, cloud.positions, length, &held);
+  const DirichletLift lift = liftAt(cloud.positions);
   // Jittered cells are sampled over their whole volume, which already covers the strip between the
   // outer particle layer and the surface: they keep their own volume (moving a share to surface
   // points would under-weight that strip and reopen a cheaper-than-physical surface layer; measured
@@ -183,7 +183,7 @@ void DemSolver::Impl::setLoadPoints(const std::vector<Eigen::Vector3d>& points,
   xs = points.empty() ? torch::zeros({0, 3}, torch::TensorOptions().dtype(dtype)) : toTensor(points, dtype);
   traction_area = forces.empty() ? torch::zeros({0, 3}, torch::TensorOptions().dtype(dtype)) : toTensor(forces, dtype);
   if (points.empty()) return;
-  const DirichletLift lift = dirichletLift(scenario, points, length, &held);
+  const DirichletLift lift = liftAt(points);
   lift_s[0] = toTensor(lift.g, dtype);
   lift_s[1] = toTensor(lift.grad_g, dtype);
   lift_s[2] = toTensor(lift.D, dtype);
@@ -318,7 +318,7 @@ std::vector<Eigen::Vector3d> DemSolver::predict(const std::vector<Eigen::Vector3
   const Tensor x = toTensor(points, m.dtype);
   Tensor u;
   if (m.config.boundary.kind == DemConfig::Boundary::kExact) {
-    const DirichletLift lift = dirichletLift(m.scenario, points, m.length, &m.held);
+    const DirichletLift lift = m.liftAt(points);
     const Tensor parts[4] = {toTensor(lift.g, m.dtype), Tensor(), toTensor(lift.D, m.dtype), Tensor()};
     u = m.displacement(x, parts, false, load_scale).first;
   } else {
@@ -341,7 +341,7 @@ core::ResultField DemSolver::evaluate(const std::vector<Eigen::Vector3d>& points
   r.positions = points;
   if (points.empty()) return r;
   const Tensor x = toTensor(points, m.dtype);
-  const DirichletLift lift = dirichletLift(m.scenario, points, m.length, &m.held);
+  const DirichletLift lift = m.liftAt(points);
   const Tensor parts[4] = {toTensor(lift.g, m.dtype), toTensor(lift.grad_g, m.dtype), toTensor(lift.D, m.dtype),
                            toTensor(lift.grad_D, m.dtype)};
   // One pass gives the displacement and its gradient.

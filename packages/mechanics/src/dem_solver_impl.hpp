@@ -96,6 +96,12 @@ struct DemSolver::Impl {
 
   // dem_field.cpp
   std::vector<Tensor> parameters() const;
+  /// The exact boundary's lift at points. The MLP alone continues it linearly through held faces
+  /// (dirichletLift's signed_faces): its cell quadrature puts points a little beyond them. The
+  /// feature grid keeps |distance| (its answers are unchanged).
+  DirichletLift liftAt(const std::vector<Eigen::Vector3d>& points) const {
+    return dirichletLift(scenario, points, length, &held, !grid);
+  }
   GridSupport gridSupport(const std::vector<Eigen::Vector3d>& points) const;
   GridSupport gridSupport(const Tensor& x) const { return gridSupport(torch_support::toVectors(x)); }
   std::pair<Tensor, Tensor> gridField(const GridSupport& support, bool gradient) const;
@@ -205,6 +211,9 @@ struct DemSolver::Impl {
   bool balanceOutput(double scale);
   void sampledLbfgsRun(double scale, int& iterations, int count, bool fused, JitterDraw& draw,
                        std::chrono::steady_clock::time_point& last);
+  // The exploit guard's verdict on the last L-BFGS run: empty, or why it kept an earlier state
+  // (that state is then no converged minimum, and checkMlpAnswer refuses it).
+  std::string exploit_kept;
 };
 
 /// Row-major tensor (rows x cols) -> Eigen, in double.

@@ -59,7 +59,7 @@ double regionSignedDistance(const core::Region& region, const Eigen::Vector3d& x
 
 void dirichletLiftAt(const core::Scenario& scenario, const Eigen::Vector3d& x, double length, Eigen::Vector3d& g,
                      Eigen::Matrix3d& grad_g, Eigen::Vector3d& D, Eigen::Matrix3d& grad_D,
-                     const std::vector<HeldFace>* held) {
+                     const std::vector<HeldFace>* held, bool signed_faces) {
   // Distances to every fixture once; components pick the fixtures that constrain them.
   constexpr int kMaxFixtures = 16;
   const int nf = static_cast<int>(scenario.fixtures.size());
@@ -77,7 +77,7 @@ void dirichletLiftAt(const core::Scenario& scenario, const Eigen::Vector3d& x, d
   }
   for (int f = 0; f < nf; ++f) {
     const bool face = held && f < static_cast<int>(held->size()) && (*held)[f].valid;
-    dist[f] = (face ? heldFaceDistance((*held)[f], x, grad[f])
+    dist[f] = (face ? heldFaceDistance((*held)[f], x, grad[f], signed_faces)
                     : regionDistanceAndGradient(scenario.fixtures[f].region, x, grad[f])) / length;
     grad[f] /= length;
   }
@@ -126,7 +126,7 @@ void dirichletLiftAt(const core::Scenario& scenario, const Eigen::Vector3d& x, d
 }
 
 DirichletLift dirichletLift(const core::Scenario& scenario, const std::vector<Eigen::Vector3d>& points, double length,
-                            const std::vector<HeldFace>* held) {
+                            const std::vector<HeldFace>* held, bool signed_faces) {
   DirichletLift lift;
   const std::size_t n = points.size();
   lift.g.resize(n);
@@ -134,7 +134,8 @@ DirichletLift dirichletLift(const core::Scenario& scenario, const std::vector<Ei
   lift.grad_g.resize(n);
   lift.grad_D.resize(n);
   for (std::size_t i = 0; i < n; ++i)
-    dirichletLiftAt(scenario, points[i], length, lift.g[i], lift.grad_g[i], lift.D[i], lift.grad_D[i], held);
+    dirichletLiftAt(scenario, points[i], length, lift.g[i], lift.grad_g[i], lift.D[i], lift.grad_D[i], held,
+                    signed_faces);
   return lift;
 }
 

@@ -133,7 +133,7 @@ std::vector<HeldFace> heldFaces(const core::Scenario& scenario, const core::Part
   return faces;
 }
 
-double heldFaceDistance(const HeldFace& face, const Eigen::Vector3d& x, Eigen::Vector3d& grad) {
+double heldFaceDistance(const HeldFace& face, const Eigen::Vector3d& x, Eigen::Vector3d& grad, bool signed_across) {
   const Eigen::Vector3d& n = face.normal;
   const Eigen::Vector3d q = x - (x - face.point).dot(n) * n;  // x projected onto the plane
   const std::size_t m = face.polygon.size();
@@ -142,6 +142,10 @@ double heldFaceDistance(const HeldFace& face, const Eigen::Vector3d& x, Eigen::V
     const Eigen::Vector3d& a = face.polygon[k];
     const Eigen::Vector3d& b = face.polygon[(k + 1) % m];
     inside = (b - a).cross(q - a).dot(n) >= 0.0;
+  }
+  if (inside && signed_across) {
+    grad = -n;
+    return (face.point - x).dot(n);  // the normal points out of the body: positive inside
   }
   Eigen::Vector3d nearest = q;
   if (!inside) {

@@ -51,8 +51,11 @@ HeldFace fitHeldFace(const core::Region& region, const std::vector<Eigen::Vector
 std::vector<HeldFace> heldFaces(const core::Scenario& scenario, const core::ParticleCloud& cloud);
 
 /// Euclidean distance from x to the face's polygon and its gradient (unit length off the polygon,
-/// zero on it).
-double heldFaceDistance(const HeldFace& face, const Eigen::Vector3d& x, Eigen::Vector3d& grad);
+/// zero on it). `signed_across`: where x projects into the polygon, the distance is signed, negative
+/// on the outer side of the face, so it continues linearly through the face instead of folding
+/// back (|distance|) there (dirichletLift's signed_faces, for the MLP alone).
+double heldFaceDistance(const HeldFace& face, const Eigen::Vector3d& x, Eigen::Vector3d& grad,
+                        bool signed_across = false);
 
 /// The FEM's nodes held by a fixture: with a face, every node (corners and mid-edge nodes) of the
 /// boundary triangles inside the region whose normals join the face; else every node inside the
