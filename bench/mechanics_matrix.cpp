@@ -11,7 +11,7 @@
 //   scenarios=tbar_twist,cuboid_twist,cantilever_bending,uniaxial_compression,self_weight_sag,
 //             cook_membrane_plane_strain,beam3d   (default: all)
 //   samplers=random,poisson,grid   spacings=6,10,15 (divisors of the smallest dimension)
-//   sources=exact,nerf   solvers=fem,dem,dem_mlp,dem_mlp_exact (and the comparison columns
+//   sources=exact,nerf   solvers=fem,dem,dem_mlp,dem_mlp_exact,dem_mlp_gn (and the comparison columns
 //             dem_particles: the earlier default DEM; dem_cells, dem_ext: cell quadrature
 //             without / with extended B-splines at 2 particle spacings, with
 //             grid_spacings=2 ext_fill=0.75 levels=1, or body_cells=N: cells from the body's volume)
@@ -83,7 +83,7 @@ Settings parseSettings(int argc, char** argv) {
   s.scenarios = bench::splitList(text("scenarios", quick ? "beam3d" : all));
   s.samplers = bench::splitList(text("samplers", quick ? "grid" : "random,poisson,grid"));
   s.sources = bench::splitList(text("sources", quick ? "exact" : "exact,nerf"));
-  s.solvers = bench::splitList(text("solvers", quick ? "fem,dem" : "fem,dem,dem_mlp,dem_mlp_exact"));
+  s.solvers = bench::splitList(text("solvers", quick ? "fem,dem" : "fem,dem,dem_mlp,dem_mlp_exact,dem_mlp_gn"));
   for (const std::string& d : bench::splitList(text("spacings", quick ? "6" : "6,10,15")))
     s.divisors.push_back(std::stoi(d));
   s.time_limit = num("time_limit", s.time_limit);
@@ -148,8 +148,15 @@ dm::SimulateOptions solverOptions(const std::string& solver, const Settings& s, 
     if (s.mlp_iters >= 0) o.dem.adam.iterations = s.mlp_iters;
     if (s.mlp_lbfgs >= 0) o.dem.lbfgs.iterations = s.mlp_lbfgs;
     o.dem.boundary.kind = solver == "dem_mlp" ? dm::DemConfig::Boundary::kPenalty : dm::DemConfig::Boundary::kExact;
+  } else if (solver == "dem_mlp_gn") {
+    // The same network, energy and exact boundary, trained by Gauss-Newton steps in the strain
+    // metric instead of L-BFGS: the settings that reached the T-bar twist (docs/dem_feature_grid.md).
+    o.dem = dm::paperDemConfig();
+    o.dem.lbfgs.iterations = 0;
+    o.dem.gauss_newton.steps = 80;
+    o.dem.gauss_newton.sample = 500;
   } else {
-    throw core::Error("unknown solver column '" + solver + "': use fem, dem, dem_particles, dem_cells, dem_ext, dem_mlp or dem_mlp_exact");
+    throw core::Error("unknown solver column '" + solver + "': use fem, dem, dem_particles, dem_cells, dem_ext, dem_mlp, dem_mlp_exact or dem_mlp_gn");
   }
   return o;
 }
