@@ -15,8 +15,10 @@
 #include <iostream>
 #include <limits>
 #include <numeric>
+#include <thread>
 
 #include "demnerf/core/error.hpp"
+#include "demnerf/mechanics/process_settings.hpp"
 #include "dem_solver_impl.hpp"
 
 namespace demnerf::mechanics {
@@ -74,6 +76,27 @@ Tensor strainJacobianRows(const DisplacementMlp& net, const Tensor& x, const Ten
   return torch::cat(blocks, 0);
 }
 
+// Every core for torch and BLAS while the steps run, unless the user pinned a count: each step is
+// a few dense products and a Cholesky of the parameters' size (the strain Jacobian's rows times
+// its ~2,000 columns, then G), which two threads nearly halve, unlike the small operations the
+// solver's one-thread default below 50k particles is for. The solver's count comes back after.
+class DenseAlgebraThreads {
+ public:
+  explicit DenseAlgebraThreads(int pinned) : before_(at::get_num_threads()) {
+    if (pinned == 0) set(static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+  }
+  ~DenseAlgebraThreads() { set(before_); }
+  DenseAlgebraThreads(const DenseAlgebraThreads&) = delete;
+  DenseAlgebraThreads& operator=(const DenseAlgebraThreads&) = delete;
+
+ private:
+  static void set(int n) {
+    at::set_num_threads(n);
+    setBlasThreads(n);
+  }
+  int before_;
+};
+
 // The parameters (weights and biases layer by layer) or their gradients as one double vector.
 Tensor flatten(const DisplacementMlp& net, bool gradients) {
   std::vector<Tensor> parts;
@@ -104,6 +127,7 @@ void DemSolver::Impl::gaussNewton(double scale, int& iterations) {
   if (!gaussNewtonAvailable())
     throw core::Error("dem.gauss_newton needs the MLP alone through the fused kernel (float32, tanh, no feature "
                       "grid, not parametric), boundary.kind exact and lbfgs.cell_spacings > 0");
+  const DenseAlgebraThreads threads(config.threads);
   const JitterDraw& draw = cellDraw();
   const long nq = draw.x.size(0), m = std::min<long>(config.gauss_newton.sample, nq);
   const bool decoupled = scenario.material.model == "neo_hookean_decoupled";
