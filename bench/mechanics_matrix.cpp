@@ -151,10 +151,10 @@ dm::SimulateOptions solverOptions(const std::string& solver, const Settings& s, 
   } else if (solver == "dem_mlp_gn") {
     // The same network, energy and exact boundary, trained by Gauss-Newton steps in the strain
     // metric instead of L-BFGS: the settings that reached the T-bar twist (docs/dem_feature_grid.md).
-    o.dem = dm::paperDemConfig();
-    o.dem.lbfgs.iterations = 0;
-    o.dem.gauss_newton.steps = 80;
-    o.dem.gauss_newton.sample = 500;
+    // The shipped file, as `--method mlp --config config/dem_mlp_gauss_newton.yaml` reads it.
+    const double limit = o.control.time_limit;
+    o = dm::solverDefaults("mlp", std::string(DEMNERF_ROOT) + "/config/dem_mlp_gauss_newton.yaml");
+    o.control.time_limit = limit;
   } else {
     throw core::Error("unknown solver column '" + solver + "': use fem, dem, dem_particles, dem_cells, dem_ext, dem_mlp, dem_mlp_exact or dem_mlp_gn");
   }

@@ -53,6 +53,20 @@ TEST(SolverConfig, ShippedExampleListsEveryKeyAtItsDefault) {
   }
 }
 
+TEST(SolverConfig, GaussNewtonFileTurnsTheMlpPresetIntoGaussNewtonSteps) {
+  // `demnerf simulate --method mlp --config config/dem_mlp_gauss_newton.yaml`: the preset first,
+  // the file over it, so the paper's network and exact boundary train by Gauss-Newton alone.
+  const dm::SimulateOptions o =
+      dm::solverDefaults("mlp", std::string(DEMNERF_SOURCE_DIR) + "/config/dem_mlp_gauss_newton.yaml");
+  EXPECT_EQ(o.dem.lbfgs.iterations, 0);
+  EXPECT_EQ(o.dem.gauss_newton.steps, 80);
+  EXPECT_EQ(o.dem.gauss_newton.sample, 500);
+  EXPECT_EQ(o.dem.boundary.kind, dm::DemConfig::Boundary::kExact);
+  EXPECT_GT(o.dem.lbfgs.cell_spacings, 0.0);  // Gauss-Newton needs the cell quadrature
+  EXPECT_EQ(o.dem.grid.body_cells, 0.0);      // the MLP alone, no feature grid
+  EXPECT_EQ(dm::SimulateOptions{}.dem.gauss_newton.steps, 0) << "Gauss-Newton is not the default";
+}
+
 TEST(SolverConfig, WrittenSettingsReadBackTheSame) {
   dm::SimulateOptions options;
   options.dem = dm::paperDemConfig();
