@@ -20,6 +20,7 @@
 #include "demnerf/core/error.hpp"
 #include "demnerf/mechanics/process_settings.hpp"
 #include "dem_solver_impl.hpp"
+#include "exploit_guard.hpp"
 
 namespace demnerf::mechanics {
 
@@ -140,8 +141,17 @@ void DemSolver::Impl::gaussNewton(double scale, int& iterations) {
   std::iota(order.begin(), order.end(), 0L);
   const double total_weight = draw.vol.sum().item<double>();
   double damping = config.gauss_newton.damping;
+  // Every step is sampled: a step moves the field as much as many L-BFGS evaluations, and the
+  // guard's energy (~1 fused evaluation) is small against a step. Its verdict supersedes the
+  // L-BFGS's: these steps start from that state.
+  ExploitGuard watchman(1, "Gauss-Newton steps");
+  exploit_kept.clear();
   for (int step = 0; step < config.gauss_newton.steps && damping < kMaxDamping; ++step) {
     balanceOutput(scale);  // a no-op once balanced; GN alone starts at the a-priori amplitude
+    if (watchman.due()) {
+      torch::NoGradGuard no_grad;
+      watchman.record(shiftedCellEnergy(scale), displacement(xv, lift_v, false, scale).first, [&] { return snapshot(); });
+    }
     metric.out_scale = out_scale;
     metric.energy_scale = energy_scale;
     double energy = 0.0, jm = 0.0;
@@ -178,6 +188,7 @@ void DemSolver::Impl::gaussNewton(double scale, int& iterations) {
     reportProgress(++iterations);
     tick("gauss_newton", scale, iterations, accepted, std::numeric_limits<double>::quiet_NaN());
   }
+  keepGuardedBest(watchman, scale);
 }
 
 }  // namespace demnerf::mechanics

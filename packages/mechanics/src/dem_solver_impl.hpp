@@ -31,6 +31,8 @@
 
 namespace demnerf::mechanics {
 
+class ExploitGuard;
+
 struct DemSolver::Impl {
   using Tensor = torch::Tensor;
 
@@ -130,6 +132,8 @@ struct DemSolver::Impl {
   JitterDraw cell_draw, shifted_cell_draw;
   const JitterDraw& cellDraw();
   const JitterDraw& shiftedCellDraw();
+  double shiftedCellEnergy(double scale);
+  void keepGuardedBest(ExploitGuard& guard, double scale);
   JitterDraw cellQuadratureDraw(double shift);
   // dem_gauss_newton.cpp: DemConfig::gauss_newton's steps on the cell quadrature (fused kernel).
   bool gaussNewtonAvailable() const;

@@ -8,39 +8,14 @@
 #include <limits>
 #include <sstream>
 
-#include "network_optimisers.hpp"
 #include "dem_solver_impl.hpp"
+#include "exploit_guard.hpp"
+#include "network_optimisers.hpp"
 #include "demnerf/mechanics/output_layer_newton.hpp"
 
 namespace demnerf::mechanics {
 
 using torch::Tensor;
-
-namespace {
-
-// The exploit guard's verdict on the state it keeps (sample `best`; one sample every `every`
-// evaluations, each the displacement at the volume particles): an answer when the field had
-// stopped moving before the exploit began, i.e. moved by less than kSettledMove (rel. L2) over the
-// kSettleSamples samples before the best. Measured over the 60 evaluations before the best: the
-// compression cube's 1/6 clouds, kept at 0.38 / 0.48 % from the FEM, moved 0.51 / 0.62 %; the
-// self-weight block's random 1/10 cloud, kept at 3.7 %, moved 2.3 %. Empty when settled, else why not.
-std::string unsettledBest(const std::vector<Tensor>& fields, const std::vector<double>& shifted, std::size_t best,
-                          int every) {
-  constexpr std::size_t kSettleSamples = 3;
-  constexpr double kSettledMove = 1e-2;
-  const std::size_t from = best >= kSettleSamples ? best - kSettleSamples : 0;
-  const double norm = fields[best].norm().item<double>();
-  const double move = best > from && norm > 0 ? (fields[best] - fields[from]).norm().item<double>() / norm : 1.0;
-  if (move < kSettledMove) return "";
-  std::ostringstream why;
-  why << "its energy on a shifted copy of the Gauss points was lowest (" << shifted[best] << " J) after "
-      << best * every << " evaluations, where the field still moved (" << 100 * move << " % rel. L2 over the "
-      << (best - from) * every << " evaluations before; settled: < " << 100 * kSettledMove << " %), and then rose to "
-      << shifted.back() << " J (inf: the field inverts there) while the training points' energy kept falling";
-  return why.str();
-}
-
-}  // namespace
 
 std::string DemSolver::Impl::keptState() const {
   std::ostringstream text;
@@ -318,31 +293,14 @@ void DemSolver::Impl::sampledLbfgsRun(double scale, int& iterations, int count, 
   if (count <= 0) return;
   // The cell quadrature is one fixed draw: a single run, one history.
   const bool cells = config.lbfgs.cell_spacings > 0;
-  // Exploit guard (fixed cell points, fused kernel): the energy on the shifted cell points, every
-  // kGuardEvery evaluations, keeps the parameters where it was lowest. Progress lowers both
-  // energies; an exploit of the training points lowers theirs and raises the shifted ones' (the
-  // compression cube's random cloud: 2.1 % at 100 iterations, 75 % at 400 with the energy falling).
-  constexpr int kGuardEvery = 20;
-  constexpr double kGuardTolerance = 1e-3;  ///< relative: the final state is kept unless clearly worse
+  // Exploit guard (fixed cell points, fused kernel; exploit_guard.hpp): every 20 evaluations.
   const bool guard = cells && fused;
-  double best_shifted = std::numeric_limits<double>::infinity();
-  std::vector<Tensor> best;
-  std::vector<double> shifted;  // one sample every kGuardEvery evaluations
-  std::vector<Tensor> fields;   // ...and the displacement at the volume particles then
-  std::size_t best_at = 0;
-  int evaluations = 0;
+  ExploitGuard watchman(20, "evaluations");
   exploit_kept.clear();
-  const auto shiftedEnergy = [&] {
-    double energy = 0.0, jm = 0.0;
-    fusedLoss(scale, shiftedCellDraw(), false, &energy, &jm);
-    return std::isfinite(energy) && jm > 0 ? energy : std::numeric_limits<double>::infinity();
-  };
   const auto watch = [&] {
-    if (!guard || evaluations++ % kGuardEvery != 0) return;
+    if (!guard || !watchman.due()) return;
     torch::NoGradGuard no_grad;
-    shifted.push_back(shiftedEnergy());
-    fields.push_back(displacement(xv, lift_v, false, scale).first);
-    if (shifted.back() < best_shifted) best_shifted = shifted.back(), best = snapshot(), best_at = shifted.size() - 1;
+    watchman.record(shiftedCellEnergy(scale), displacement(xv, lift_v, false, scale).first, [&] { return snapshot(); });
   };
   runSampledLbfgs(
       parameters(), count, cells ? count : config.lbfgs.sample_iterations, config.lbfgs.history,
@@ -361,17 +319,27 @@ void DemSolver::Impl::sampledLbfgsRun(double scale, int& iterations, int count, 
         return std::make_pair(l, std::isfinite(value) && jm > 0);
       },
       [&] { draw = cells ? cellDraw() : drawJitter(); });
-  if (!guard || best.empty()) return;
-  shifted.push_back(shiftedEnergy());
-  if (shifted.back() > best_shifted + kGuardTolerance * std::abs(best_shifted)) {
-    // The state kept is an answer only if it had converged before the exploit began.
-    exploit_kept = unsettledBest(fields, shifted, best_at, kGuardEvery);
-    if (config.verbose)
-      std::cerr << "dem: exploit guard: shifted points' energy " << shifted.back() << " J, best " << best_shifted
-                << " J after " << best_at * kGuardEvery << " evaluations; keeping the best"
-                << (exploit_kept.empty() ? " (settled)" : " (still moving: refused)") << "\n";
-    restore(best);
-  }
+  if (guard) keepGuardedBest(watchman, scale);
+}
+
+// The fused energy on the shifted cell points; inf where the field inverts there.
+double DemSolver::Impl::shiftedCellEnergy(double scale) {
+  torch::NoGradGuard no_grad;
+  double energy = 0.0, jm = 0.0;
+  fusedLoss(scale, shiftedCellDraw(), false, &energy, &jm);
+  return std::isfinite(energy) && jm > 0 ? energy : std::numeric_limits<double>::infinity();
+}
+
+// At the end of a guarded training: back to the guard's best sample when the final state's
+// shifted energy is clearly worse; that state is refused later (exploit_kept) unless it had settled.
+void DemSolver::Impl::keepGuardedBest(ExploitGuard& guard, double scale) {
+  const double final_energy = shiftedCellEnergy(scale);
+  if (!guard.keepBest(final_energy, exploit_kept)) return;
+  if (config.verbose)
+    std::cerr << "dem: exploit guard: shifted points' energy " << final_energy << " J, best " << guard.bestEnergy()
+              << " J after " << guard.bestEvaluation() << " evaluations or steps; keeping the best"
+              << (exploit_kept.empty() ? " (settled)" : " (still moving: refused)") << "\n";
+  restore(guard.best());
 }
 
 }  // namespace demnerf::mechanics
