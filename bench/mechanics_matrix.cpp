@@ -17,6 +17,7 @@
 //             grid_spacings=2 ext_fill=0.75 levels=1, or body_cells=N: cells from the body's volume)
 //   time_limit=60 (s per cell)   mlp_iters=N mlp_lbfgs=N (paper's DEM: Adam steps, then L-BFGS iterations, per
 //             load step; default: paperDemConfig()'s, as `--method mlp`)
+//   gn_steps=N (dem_mlp_gn: Gauss-Newton steps instead of the shipped file's 80)
 //   fem_div=0 (FEM column's mesh size = smallest dimension / fem_div; 0: the CLI's automatic size)
 //   ref_div=8 conv_div=6 (reference FEM cells: smallest dimension / these)   ref_time_limit=1800
 //   nerf_seconds=60, or nerf_cpu_seconds=C (a CPU budget, 2 x seconds on an idle 2-core machine)
@@ -66,7 +67,7 @@ struct Settings {
   std::vector<int> divisors;
   double time_limit = 60.0, ref_time_limit = 1800.0, fem_div = 0.0, nerf_seconds = 60.0, nerf_cpu_seconds = 0.0;
   double grid_spacings = 2.0, extension_fill = 0.75, body_cells = 0.0;  // the dem_cells / dem_ext columns
-  int boundary_levels = 1, mlp_iters = -1, mlp_lbfgs = -1, ref_div = 8, conv_div = 6, seed = 1;
+  int boundary_levels = 1, mlp_iters = -1, mlp_lbfgs = -1, gn_steps = -1, ref_div = 8, conv_div = 6, seed = 1;
   std::string out, docs, title, yaml, config;
   std::vector<std::string> rows;
   bool partial = false;
@@ -93,6 +94,7 @@ Settings parseSettings(int argc, char** argv) {
   s.nerf_cpu_seconds = num("nerf_cpu_seconds", s.nerf_cpu_seconds);
   s.mlp_iters = static_cast<int>(num("mlp_iters", s.mlp_iters));
   s.mlp_lbfgs = static_cast<int>(num("mlp_lbfgs", s.mlp_lbfgs));
+  s.gn_steps = static_cast<int>(num("gn_steps", s.gn_steps));
   s.ref_div = static_cast<int>(num("ref_div", s.ref_div));
   s.conv_div = static_cast<int>(num("conv_div", s.conv_div));
   s.seed = static_cast<int>(num("seed", s.seed));
@@ -155,6 +157,7 @@ dm::SimulateOptions solverOptions(const std::string& solver, const Settings& s, 
     const double limit = o.control.time_limit;
     o = dm::solverDefaults("mlp", std::string(DEMNERF_ROOT) + "/config/dem_mlp_gauss_newton.yaml");
     o.control.time_limit = limit;
+    if (s.gn_steps >= 0) o.dem.gauss_newton.steps = s.gn_steps;
   } else {
     throw core::Error("unknown solver column '" + solver + "': use fem, dem, dem_particles, dem_cells, dem_ext, dem_mlp, dem_mlp_exact or dem_mlp_gn");
   }
