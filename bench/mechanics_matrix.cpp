@@ -16,8 +16,7 @@
 //             without / with extended B-splines at 2 particle spacings, with
 //             grid_spacings=2 ext_fill=0.75 levels=1, or body_cells=N: cells from the body's volume)
 //   time_limit=60 (s per cell)   mlp_iters=N mlp_lbfgs=N (paper's DEM: Adam steps, then L-BFGS iterations, per
-//             load step; default: paperDemConfig()'s, as `--method mlp`)
-//   gn_steps=N (dem_mlp_gn: Gauss-Newton steps instead of the shipped file's 80)
+//             load step; default: paperDemConfig()'s)   gn_steps=N (dem_mlp_gn's steps; default the file's 80)
 //   fem_div=0 (FEM column's mesh size = smallest dimension / fem_div; 0: the CLI's automatic size)
 //   ref_div=8 conv_div=6 (reference FEM cells: smallest dimension / these)   ref_time_limit=1800
 //   nerf_seconds=60, or nerf_cpu_seconds=C (a CPU budget, 2 x seconds on an idle 2-core machine)
@@ -151,9 +150,8 @@ dm::SimulateOptions solverOptions(const std::string& solver, const Settings& s, 
     if (s.mlp_lbfgs >= 0) o.dem.lbfgs.iterations = s.mlp_lbfgs;
     o.dem.boundary.kind = solver == "dem_mlp" ? dm::DemConfig::Boundary::kPenalty : dm::DemConfig::Boundary::kExact;
   } else if (solver == "dem_mlp_gn") {
-    // The same network, energy and exact boundary, trained by Gauss-Newton steps in the strain
-    // metric instead of L-BFGS: the settings that reached the T-bar twist (docs/dem_feature_grid.md).
-    // The shipped file, as `--method mlp --config config/dem_mlp_gauss_newton.yaml` reads it.
+    // The MLP alone trained by Gauss-Newton steps instead of L-BFGS (docs/dem_feature_grid.md), as
+    // `--method mlp --config config/dem_mlp_gauss_newton.yaml` reads the shipped file.
     const double limit = o.control.time_limit;
     o = dm::solverDefaults("mlp", std::string(DEMNERF_ROOT) + "/config/dem_mlp_gauss_newton.yaml");
     o.control.time_limit = limit;
