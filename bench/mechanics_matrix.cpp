@@ -91,11 +91,9 @@ Settings parseSettings(int argc, char** argv) {
   s.fem_div = num("fem_div", s.fem_div);
   s.nerf_seconds = num("nerf_seconds", s.nerf_seconds);
   s.nerf_cpu_seconds = num("nerf_cpu_seconds", s.nerf_cpu_seconds);
-  s.mlp_iters = static_cast<int>(num("mlp_iters", s.mlp_iters));
-  s.mlp_lbfgs = static_cast<int>(num("mlp_lbfgs", s.mlp_lbfgs));
-  s.gn_steps = static_cast<int>(num("gn_steps", s.gn_steps));
-  s.ref_div = static_cast<int>(num("ref_div", s.ref_div));
-  s.conv_div = static_cast<int>(num("conv_div", s.conv_div));
+  for (const auto& [key, value] : {std::pair<const char*, int*>{"mlp_iters", &s.mlp_iters}, {"mlp_lbfgs", &s.mlp_lbfgs},
+                                   {"gn_steps", &s.gn_steps}, {"ref_div", &s.ref_div}, {"conv_div", &s.conv_div}})
+    *value = static_cast<int>(num(key, *value));
   s.seed = static_cast<int>(num("seed", s.seed));
   s.grid_spacings = num("grid_spacings", s.grid_spacings);
   s.extension_fill = num("ext_fill", s.extension_fill);
