@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cstdint>
 #include <iostream>
-#include <thread>
 
 #include "demnerf/mechanics/cell_quadrature.hpp"
 #include "dem_config_check.hpp"
@@ -29,8 +28,7 @@ const float* floats(const Tensor& t) { return t.defined() && t.numel() > 0 ? t.d
 int kernelThreads(int configured, std::int64_t points) {
   if (configured > 0) return configured;
   constexpr std::int64_t kPointsPerThread = 1000;
-  const std::int64_t cores = std::max(1u, std::thread::hardware_concurrency());
-  return static_cast<int>(std::clamp<std::int64_t>(points / kPointsPerThread, 1, cores));
+  return static_cast<int>(std::clamp<std::int64_t>(points / kPointsPerThread, 1, torch_support::allCores()));
 }
 
 }  // namespace

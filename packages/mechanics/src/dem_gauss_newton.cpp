@@ -15,10 +15,8 @@
 #include <iostream>
 #include <limits>
 #include <numeric>
-#include <thread>
 
 #include "demnerf/core/error.hpp"
-#include "demnerf/mechanics/process_settings.hpp"
 #include "dem_solver_impl.hpp"
 #include "exploit_guard.hpp"
 
@@ -84,17 +82,13 @@ Tensor strainJacobianRows(const DisplacementMlp& net, const Tensor& x, const Ten
 class DenseAlgebraThreads {
  public:
   explicit DenseAlgebraThreads(int pinned) : before_(at::get_num_threads()) {
-    if (pinned == 0) set(static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+    if (pinned == 0) torch_support::setSolverThreads(torch_support::allCores(), 0);
   }
-  ~DenseAlgebraThreads() { set(before_); }
+  ~DenseAlgebraThreads() { torch_support::setSolverThreads(before_, 0); }
   DenseAlgebraThreads(const DenseAlgebraThreads&) = delete;
   DenseAlgebraThreads& operator=(const DenseAlgebraThreads&) = delete;
 
  private:
-  static void set(int n) {
-    at::set_num_threads(n);
-    setBlasThreads(n);
-  }
   int before_;
 };
 

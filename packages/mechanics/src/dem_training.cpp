@@ -337,7 +337,7 @@ void DemSolver::Impl::keepGuardedBest(ExploitGuard& guard, double scale) {
   if (!guard.keepBest(final_energy, exploit_kept)) return;
   if (config.verbose)
     std::cerr << "dem: exploit guard: shifted points' energy " << final_energy << " J, best " << guard.bestEnergy()
-              << " J after " << guard.bestEvaluation() << " evaluations or steps; keeping the best"
+              << " J after " << guard.bestEvaluation() << " " << guard.unit() << "; keeping the best"
               << (exploit_kept.empty() ? " (settled)" : " (still moving: refused)") << "\n";
   restore(guard.best());
 }

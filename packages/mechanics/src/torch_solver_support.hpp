@@ -121,10 +121,11 @@ inline BodyBox bodyBox(const core::ParticleCloud& cloud) {
 /// constructor): `threads` when > 0, else one thread below 50k particles (fastest for
 /// product-size clouds on shared 2-core machines) and every core above, where the threads'
 /// synchronisation pays off. The process's own count is dem_nerf::configureRuntime's.
+/// Every core of the machine (at least one).
+inline int allCores() { return static_cast<int>(std::max(1u, std::thread::hardware_concurrency())); }
+
 inline void setSolverThreads(int threads, std::size_t particles) {
-  const int n = threads > 0 ? threads
-                : particles < 50000 ? 1
-                                    : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const int n = threads > 0 ? threads : particles < 50000 ? 1 : allCores();
   at::set_num_threads(n);
   mechanics::setBlasThreads(n);
 }

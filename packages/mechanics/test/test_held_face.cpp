@@ -158,7 +158,7 @@ TEST(HeldFace, DemThickBandsClampFacesSoTheStretchStaysHomogeneous) {
     ref = std::max(ref, exact.norm());
   }
   std::cout << "DEM, 0.3-thick bands on the unit cube: max rel error " << err / ref << " in " << report.seconds << " s\n";
-  EXPECT_LT(err / ref, 0.03);
+  EXPECT_LT(err / ref, 0.01);
 }
 
 // The MLP alone continues its lift linearly through a held face (dirichletLift's signed_faces):
