@@ -84,6 +84,7 @@ Eigen::VectorXd FemSolver::Impl::solveLinear(const Eigen::VectorXd& rhs, double 
       ++result.cg_iterations;
       if (r.norm() <= target) {
         result.solve_seconds += secondsSince(t0);
+        step_shifted = false;  // CG solved with K itself
         return x;
       }
       z = factorSolve(r);
@@ -109,6 +110,10 @@ Eigen::VectorXd FemSolver::Impl::solveLinear(const Eigen::VectorXd& rhs, double 
     return Eigen::VectorXd::Constant(n_free, std::numeric_limits<double>::quiet_NaN());
   }
   result.factorisation_seconds += secondsSince(t0);
+  step_shifted = factor.shift() > 0.0;
+  if (config.verbose && step_shifted)
+    std::cerr << "fem: the tangent is not positive definite; factorised with a shift of " << factor.shift()
+              << " x |diag K| (a descent step instead of Newton's)\n";
   if (config.verbose && result.factorisations == 1)
     std::cerr << "fem: " << n_free << " free dofs, nnz(K lower) " << K.nonZeros() << ", factor entries "
               << factor.factorEntries() << ", first factorisation " << secondsSince(t0) << " s\n";
@@ -153,9 +158,10 @@ bool FemSolver::Impl::newton(double scale) {
     if (config.verbose) std::cerr << "fem: scale " << scale << " it " << it << " |R| " << res << " ref " << ref << "\n";
     if (clock) reportNewton(*clock, scale, result.newton_iterations, e0, result.residual);
     // Residuals of tiny loads drown in the round-off of P = mu (F - F^-T) + ..., so a vanishing
-    // Newton update also counts as converged.
-    if (at_target && (res <= config.tolerance * ref ||
-                      (it > 0 && last_update <= config.displacement_tolerance * u.norm()))) return true;
+    // Newton update also counts as converged; a shifted step's does not (the shift shrinks it in
+    // the soft directions, the ones that are still wrong).
+    const bool update_vanished = it > 0 && !step_shifted && last_update <= config.displacement_tolerance * u.norm();
+    if (at_target && (res <= config.tolerance * ref || update_vanished)) return true;
     if (it == config.max_newton_iterations) break;
     // Far from the answer a rough direction is as good as an exact one; close to it the forcing
     // term shrinks with the residual so the quadratic convergence is kept.

@@ -42,6 +42,7 @@ struct FemSolver::Impl {
   std::vector<std::vector<int>> colours;  // element ids; no two in a colour share a node
   FemFactor factor;  // of K (fem_factor.hpp)
   bool analysed = false, factor_valid = false;
+  bool step_shifted = false;  // the last linear solve used a shifted factor (fem_factor.hpp)
   // The running solve's clock (null: no budget, no reports) and the last converged load fraction.
   SolveClock* clock = nullptr;
   double done = 0.0;

@@ -130,15 +130,21 @@ TEST(SupernodalCholesky, RefusesAMatrixThatIsNotPositiveDefinite) {
 }
 
 // The FEM's factor (src/fem_factor.hpp): the supernodal Cholesky where the tangent is positive
-// definite, in the mesh's order or AMD's; the LDL^T it replaced where it is not, as before.
-double factorResidual(const Eigen::SparseMatrix<double>& A, bool pre_ordered) {
+// definite, in the mesh's order or AMD's; a shifted Cholesky where it is not (a descent step for
+// the Newton); the LDL^T where no shift of the ladder helps. `shift` returns the factor's shift.
+double factorResidual(const Eigen::SparseMatrix<double>& A, bool pre_ordered, double* shift = nullptr,
+                      double* descent = nullptr) {
   FemFactor factor;
   factor.configure(pre_ordered, 2);
   if (!factor.factorise(A)) return -1.0;
   Eigen::VectorXd b(A.rows());
   for (Eigen::Index i = 0; i < b.size(); ++i) b(i) = std::cos(0.37 * static_cast<double>(i));
   const Eigen::VectorXd x = factor.solve(b);
-  return (A.selfadjointView<Eigen::Lower>() * x - b).norm() / b.norm();
+  if (shift) *shift = factor.shift();
+  if (descent) *descent = b.dot(x);  // > 0: -x goes downhill along a gradient b
+  Eigen::SparseMatrix<double> factored = A;
+  factored.diagonal() += factor.shift() * A.diagonal().cwiseAbs();
+  return (factored.selfadjointView<Eigen::Lower>() * x - b).norm() / b.norm();
 }
 
 TEST(FemFactor, SolvesAPositiveDefiniteTangentInEitherOrder) {
@@ -149,14 +155,31 @@ TEST(FemFactor, SolvesAPositiveDefiniteTangentInEitherOrder) {
   EXPECT_LT(factorResidual(A, false), 1e-10);
 }
 
-TEST(FemFactor, FallsBackToLdltForAnIndefiniteTangent) {
-  const Eigen::SparseMatrix<double> A = latticeMatrix(6, 5, 4, 1.2, true);
+TEST(FemFactor, ShiftsAnIndefiniteTangentIntoADescentStep) {
+  // Positive diagonal, too small for the couplings: indefinite as a tangent far from equilibrium is.
+  const Eigen::SparseMatrix<double> A = latticeMatrix(6, 5, 4, 0.35);
   SupernodalCholesky cholesky;
   cholesky.analyse(A);
   ASSERT_FALSE(cholesky.factorise(A));  // the Cholesky alone refuses it
-  const double residual = factorResidual(A, true);
-  EXPECT_GE(residual, 0.0) << "the LDL^T fallback did not factor an indefinite but regular tangent";
+  for (bool pre_ordered : {true, false}) {
+    double shift = 0.0, descent = 0.0;
+    const double residual = factorResidual(A, pre_ordered, &shift, &descent);
+    EXPECT_GE(residual, 0.0) << "no factor of an indefinite but regular tangent";
+    EXPECT_LT(residual, 1e-10) << "the factor is not of A + shift |diag A|";
+    EXPECT_GT(shift, 0.0);
+    EXPECT_LE(shift, 1.0);
+    EXPECT_GT(descent, 0.0) << "the shifted step does not go downhill";
+  }
+}
+
+TEST(FemFactor, FallsBackToLdltWhereNoShiftOfTheLadderHelps) {
+  // -A is negative definite: even a shift of its whole |diagonal| leaves no diagonal to lean on.
+  const Eigen::SparseMatrix<double> A = -latticeMatrix(6, 5, 4, 1.2);
+  double shift = 1.0;
+  const double residual = factorResidual(A, true, &shift);
+  EXPECT_GE(residual, 0.0) << "the LDL^T fallback did not factor a regular tangent";
   EXPECT_LT(residual, 1e-8);
+  EXPECT_EQ(shift, 0.0) << "the LDL^T factors the tangent itself";
 }
 
 }  // namespace
