@@ -33,6 +33,7 @@
 #include "mechanics_bench_common.hpp"
 #include "mechanics_matrix_cases.hpp"
 #include "mechanics_matrix_report.hpp"
+#include "surface_roughness.hpp"
 
 namespace dm = demnerf::mechanics;
 namespace core = demnerf::core;
@@ -99,6 +100,10 @@ dm::BsplineGrid demGrid(const core::ParticleCloud& cloud, const dm::DemConfig& c
               1e3 * resolved.config.grid.cell, 1e3 * std::cbrt(volume / g.body_cells), 1e3 * 0.6 * resolved.spacing,
               g.thickness_cells > 0 ? 1e3 * 4 * volume / area / g.thickness_cells : 0.0, 4e3 * volume / area,
               g.surface_cells > 0 ? 1e3 * std::sqrt(area / g.surface_cells) : 0.0);
+  const double surface_spacing = dm::surfaceParticleSpacing(cloud);
+  for (double radius : {1e-2, 2e-2, 3 * surface_spacing})
+    std::printf("    surface roughness at %.1f mm: %.3f mm (surface spacing %.2f mm)\n", 1e3 * radius,
+                1e3 * dm::surfaceRoughness(cloud, radius), 1e3 * surface_spacing);
   Vector3d lo = cloud.positions[0], hi = lo;
   for (const Vector3d& p : cloud.positions) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
   const Vector3d margin = Vector3d::Constant(0.5 * resolved.spacing);

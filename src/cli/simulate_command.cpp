@@ -150,7 +150,8 @@ const char* usage() {
       << number(d.dem.grid.body_cells)
       << ": cell = (V / N)^(1/3) from the body's volume (never finer than the particles,\n"
          "                         nor than six cells across the mean thickness 4V/A: grid.thickness_cells,\n"
-         "                         nor than sqrt(A / 2000) for a ragged surface of area A: grid.surface_cells)\n"
+         "                         nor than sqrt(A / 2000) for a ragged surface of area A: grid.surface_cells;\n"
+         "                         0.8 of it on a rough surface, a NeRF extraction's: grid.rough_surface)\n"
          "  --grid-spacings S      default "
       << number(d.dem.grid.spacings)
       << " (off): cell in particle spacings instead (below 1.5 is refused with the particle\n"

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "demnerf/core/error.hpp"
+#include "surface_roughness.hpp"
 
 namespace demnerf::mechanics {
 namespace {
@@ -37,6 +38,9 @@ void checkGridSettings(const DemConfig& config) {
   if (!(config.grid.thickness_cells >= 0) || !std::isfinite(config.grid.thickness_cells) ||
       !(config.grid.surface_cells >= 0) || !std::isfinite(config.grid.surface_cells))
     throw core::Error("DEM grid.thickness_cells and grid.surface_cells must be finite and >= 0 (0: off)");
+  if (!(config.grid.rough_surface >= 0) || !std::isfinite(config.grid.rough_surface) ||
+      !(config.grid.rough_cell_ratio > 0 && config.grid.rough_cell_ratio <= 1))
+    throw core::Error("DEM grid.rough_surface must be finite and >= 0 (0: off) and grid.rough_cell_ratio lie in (0, 1]");
 }
 
 // A resolved grid against the particles that integrate it or carry its loads.
@@ -81,6 +85,23 @@ double interiorParticleSpacing(const core::ParticleCloud& cloud) {
   return std::cbrt(*at);
 }
 
+namespace {
+
+// The cell on a rough surface: rough_cell_ratio of the body's when the surface particles scatter
+// about their local quadric by more than rough_surface of the radius they are fitted over (two
+// cells, at least three surface spacings: a quadric's six coefficients need the neighbours), but
+// never finer than the particles resolve. Exactly sampled faces scatter 0; the NeRF T-bar's 1.5-2.4 %.
+double roughSurfaceCell(const DemConfig& config, const core::ParticleCloud& cloud, double spacing) {
+  const DemGridConfig& g = config.grid;
+  if (!(g.rough_surface > 0) || !(g.rough_cell_ratio < 1)) return g.cell;
+  const double radius = std::max(2 * g.cell, 3 * surfaceParticleSpacing(cloud));
+  if (!(surfaceRoughness(cloud, radius) > g.rough_surface * radius)) return g.cell;
+  const bool particles = g.quadrature == DemConfig::GridQuadrature::kParticles;
+  return std::max(g.cell * g.rough_cell_ratio, (particles ? 1.0 : kFinestCellInSpacings) * spacing);
+}
+
+}  // namespace
+
 ResolvedDemConfig resolvedDemConfig(DemConfig config, const core::ParticleCloud& cloud) {
   checkNetwork(config);
   checkGridSettings(config);
@@ -107,8 +128,17 @@ ResolvedDemConfig resolvedDemConfig(DemConfig config, const core::ParticleCloud&
     // sponge of genus ~540) had ~5,600 of them at 2000 body cells, whose inside probes took 40 s
     // of set-up, and a grid finer than its tunnels resolves none of them. About surface_cells cells
     // meet the surface (T-bar ~1,300 at 10 mm, Cook 2.7 mm ~830: unchanged; fox 73 -> 122 mm).
-    if (config.grid.surface_cells > 0 && area > 0)
-      config.grid.cell = std::max(config.grid.cell, std::sqrt(area / config.grid.surface_cells));
+    const double ragged = config.grid.surface_cells > 0 && area > 0 ? std::sqrt(area / config.grid.surface_cells) : 0.0;
+    if (ragged > config.grid.cell) {
+      config.grid.cell = ragged;
+    } else {
+      // A rough surface (a NeRF extraction's bumps of a few mm) asks for finer cells near it, where
+      // torsion's shear is largest: the NeRF T-bar's and cuboid's energies were 1-2.7 % stiff at the
+      // exact surfaces' cells and fell about linearly with the cell (surface_roughness.hpp). The
+      // bumps add area (NeRF T-bar +8 %), so the cap above would undo the refinement (8.6 mm): a
+      // body it did not bind keeps clear of it.
+      config.grid.cell = roughSurfaceCell(config, cloud, spacing);
+    }
   }
   checkGridAgainstParticles(config, spacing);
   return {config, spacing};

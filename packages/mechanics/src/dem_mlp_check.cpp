@@ -102,6 +102,7 @@ void DemSolver::Impl::buildCheckBasis() {
   sized.grid.body_cells = 600.0;
   sized.grid.thickness_cells = 0.0;
   sized.grid.surface_cells = 0.0;
+  sized.grid.rough_surface = 0.0;
   sized.boundary.kind = DemConfig::Boundary::kExact;  // resolvedDemConfig's rules for a grid's settings
   sized.parametric.enabled = false;
   sized.output_newton.enabled = false;

@@ -1,0 +1,93 @@
+// The rough-surface sizing rule (DemGridConfig::rough_surface): the roughness measure reads flat
+// faces and smooth curves as smooth, a NeRF-like bumpy face as rough, and only a rough body's grid
+// is refined.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "../src/dem_config_check.hpp"
+#include "../src/surface_roughness.hpp"
+#include "demnerf/mechanics/box_particles.hpp"
+
+namespace demnerf::mechanics {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// The box's particles with each surface particle moved along its normal by a x sin(2 pi u / l)
+// sin(2 pi v / l) (u, v its coordinates in the face) and its normal tilted to the bumps' slope:
+// the few-mm bumps of a NeRF extraction on an otherwise flat face.
+core::ParticleCloud bumpyBox(const Eigen::Vector3i& cells, double amplitude, double wavelength) {
+  core::ParticleCloud cloud = makeBoxParticles(Eigen::Vector3d::Zero(), Eigen::Vector3d(0.2, 0.1, 0.1), cells);
+  const double k = 2 * kPi / wavelength;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    if (!cloud.isSurface(i)) continue;
+    const Eigen::Vector3d n = cloud.normals[i];
+    int a = 0;
+    n.cwiseAbs().maxCoeff(&a);
+    const int b = (a + 1) % 3, c = (a + 2) % 3;
+    const double u = cloud.positions[i](b), v = cloud.positions[i](c);
+    cloud.positions[i] += amplitude * std::sin(k * u) * std::sin(k * v) * n;
+    Eigen::Vector3d tilted = n;
+    tilted(b) -= n(a) * amplitude * k * std::cos(k * u) * std::sin(k * v);
+    tilted(c) -= n(a) * amplitude * k * std::sin(k * u) * std::cos(k * v);
+    cloud.normals[i] = tilted.normalized();
+  }
+  return cloud;
+}
+
+// Surface particles on a sphere of radius R (random directions), each with the sphere's normal.
+core::ParticleCloud sphereSurface(double R, int count) {
+  core::ParticleCloud cloud;
+  std::mt19937 rng(3);
+  std::normal_distribution<double> normal;
+  const double area = 4 * kPi * R * R / count;
+  for (int i = 0; i < count; ++i) {
+    const Eigen::Vector3d n = Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized();
+    cloud.positions.push_back(R * n);
+    cloud.normals.push_back(n);
+    cloud.areas.push_back(area);
+    cloud.volumes.push_back(0.0);
+  }
+  cloud.colors.resize(cloud.size());
+  return cloud;
+}
+
+TEST(SurfaceRoughness, FlatFacesAndSmoothCurvesReadAsSmooth) {
+  const core::ParticleCloud box = makeBoxParticles(Eigen::Vector3d::Zero(), Eigen::Vector3d(0.2, 0.1, 0.1), {50, 25, 25});
+  EXPECT_LT(surfaceRoughness(box, 0.02), 1e-12);  // edges: the other face's particles are left out
+  // A sphere of 5 cells' radius (10 mm cells, fitted over 20 mm): a plane would leave ~0.4 mm.
+  const core::ParticleCloud sphere = sphereSurface(0.05, 20000);
+  EXPECT_LT(surfaceRoughness(sphere, 0.02), 0.2 * 0.005 * 0.02);
+}
+
+TEST(SurfaceRoughness, BumpsOfAFewMillimetresReadAsRough) {
+  // 1 mm bumps 8 mm apart on 4 mm particles (which sit on their crests and troughs): scatter about
+  // a, against the 0.1 mm threshold at 20 mm.
+  const double scatter = surfaceRoughness(bumpyBox({50, 25, 25}, 1e-3, 8e-3), 0.02);
+  EXPECT_GT(scatter, 0.3e-3);
+  EXPECT_LT(scatter, 1.05e-3);
+}
+
+TEST(SurfaceRoughness, OnlyARoughBodysGridIsRefined) {
+  DemConfig config;  // the product's DEM: body_cells 2000, thickness_cells 6
+  const Eigen::Vector3i cells(50, 25, 25);
+  const double flat = resolvedDemConfig(config, bumpyBox(cells, 0.0, 8e-3)).config.grid.cell;
+  const double rough = resolvedDemConfig(config, bumpyBox(cells, 1e-3, 8e-3)).config.grid.cell;
+  EXPECT_NEAR(rough, config.grid.rough_cell_ratio * flat, 1e-9);
+  config.grid.rough_surface = 0.0;  // off
+  EXPECT_NEAR(resolvedDemConfig(config, bumpyBox(cells, 1e-3, 8e-3)).config.grid.cell, flat, 1e-12);
+  // A ragged body keeps the surface_cells cap (the fox: its cut cells' set-up).
+  config.grid.rough_surface = 0.005;
+  config.grid.surface_cells = 20;  // sqrt(A / 20) = 71 mm, above the body's rules
+  EXPECT_NEAR(resolvedDemConfig(config, bumpyBox(cells, 1e-3, 8e-3)).config.grid.cell, std::sqrt(0.1 / 20), 1e-9);
+  config.grid.surface_cells = DemGridConfig{}.surface_cells;
+  // Never finer than 0.6 particle spacings: 25 mm particles keep their 15 mm cells.
+  const Eigen::Vector3i coarse(8, 4, 4);
+  EXPECT_NEAR(resolvedDemConfig(config, bumpyBox(coarse, 1e-3, 8e-3)).config.grid.cell,
+              resolvedDemConfig(config, bumpyBox(coarse, 0.0, 8e-3)).config.grid.cell, 1e-12);
+}
+
+}  // namespace
+}  // namespace demnerf::mechanics
