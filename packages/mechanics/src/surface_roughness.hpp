@@ -11,11 +11,12 @@
 
 namespace demnerf::mechanics {
 
-/// The surface particles' scatter about their local plane at scale `radius` (m): per surface
-/// particle, the RMS distance from their least-squares plane of the surface particles within
-/// `radius` whose normals turn less than 30 degrees from its own (the other faces at an edge are
-/// not roughness), taken where at least six are found; the median over those particles. 0 on the
-/// flat faces of an exactly sampled mesh, and 0 when no particle has the neighbours.
+/// The surface particles' scatter about their local quadric at scale `radius` (m): per sampled
+/// surface particle (at most 4,000, evenly strided), the RMS distance of the surface particles
+/// within `radius` whose normals turn less than 30 degrees from its own (the other faces at an edge
+/// are not roughness) from their least-squares quadric height field, taken where at least ten are
+/// found; the median over those particles. 0 on the flat faces of an exactly sampled mesh, ~0 on a
+/// smooth curve, and 0 when no particle has the neighbours.
 double surfaceRoughness(const core::ParticleCloud& cloud, double radius);
 
 /// The surface particles' spacing: the square root of their median area (0 without any).
