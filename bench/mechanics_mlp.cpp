@@ -9,10 +9,14 @@
 //   seed=1 (the sampler's)  config=FILE (solver settings over paperDemConfig(), as --config)
 //   boundary=penalty|exact (over both)  ref=DIR (a mechanics_matrix out= dir whose
 //   reference_<scenario>_exact_fine.ply holds these particles; none: no rel. L2)
+//   source=exact|nerf (nerf: the surface mechanics_matrix cached in REF/nerf_<scene>/, and its
+//   reference_<scenario>_nerf_fine.ply)
 //   every=25 (iterations between readings; 0: none)  time_limit=60  verbose=0|1
+//   bands=z1,z2,... (the final error's share and rel. L2 in each band of z)
 //   energy=0|1 (1: the training energy on its Gauss points once a second)
 // Prints one line per reading and a summary line.
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -83,6 +87,29 @@ Reading read(const dm::DemSolver& dem, const core::ParticleCloud& cloud, const b
   return r;
 }
 
+// Where the error lies: each band of the body along z (bands=z0,z1,...), its share of the squared
+// error and its own rel. L2 (the T-bar: the clamp's band, the leg, the bar).
+void printBands(const std::string& cuts, const std::vector<Vector3d>& x, const std::vector<Vector3d>& u,
+                const std::vector<Vector3d>& reference) {
+  std::vector<double> z{-1e9};
+  for (std::size_t at = 0; at < cuts.size();) {
+    const std::size_t comma = std::min(cuts.find(',', at), cuts.size());
+    z.push_back(std::stod(cuts.substr(at, comma - at)));
+    at = comma + 1;
+  }
+  z.push_back(1e9);
+  std::vector<double> e(z.size(), 0.0), r(z.size(), 0.0);
+  double total = 0.0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const std::size_t b = std::upper_bound(z.begin(), z.end(), x[i].z()) - z.begin() - 1;
+    e[b] += (u[i] - reference[i]).squaredNorm(), r[b] += reference[i].squaredNorm();
+    total += (u[i] - reference[i]).squaredNorm();
+  }
+  for (std::size_t b = 0; b + 1 < z.size(); ++b)
+    std::printf("  band z in [%g, %g): %.1f %% of the squared error, rel. L2 %.2f %%\n", z[b], z[b + 1], 100 * e[b] / total,
+                100 * std::sqrt(e[b] / std::max(r[b], 1e-300)));
+}
+
 dm::DemConfig configFrom(const Arguments& a) {
   dm::DemConfig config = dm::solverDefaults("mlp", text(a, "config", "")).dem;
   const std::string boundary = text(a, "boundary", "");
@@ -109,10 +136,13 @@ int main(int argc, char** argv) {
   const int div = std::stoi(text(a, "div", "6"));
   sampler.spacing = mc.smallest / div;
   sampler.seed = static_cast<std::uint64_t>(std::stoi(text(a, "seed", "1")));
-  const core::ParticleCloud cloud = geo::sampleParticles(mc.surface(), sampler);
-  const std::string ref_dir = text(a, "ref", "");
+  const std::string ref_dir = text(a, "ref", ""), source = text(a, "source", "exact");
+  if (source != "exact" && (source != "nerf" || ref_dir.empty()))
+    throw core::Error("source= is exact or nerf (with ref=, the matrix folder holding the cached surface)");
+  const core::ParticleCloud cloud = geo::sampleParticles(
+      source == "nerf" ? core::readMesh(ref_dir + "/nerf_" + mc.nerf_scene + "/extracted_mesh.ply") : mc.surface(), sampler);
   const std::vector<Vector3d> reference =
-      referenceAt(ref_dir.empty() ? "" : ref_dir + "/reference_" + name + "_exact_fine.ply", cloud);
+      referenceAt(ref_dir.empty() ? "" : ref_dir + "/reference_" + name + "_" + source + "_fine.ply", cloud);
   const dm::DemConfig config = configFrom(a);
   dm::DemSolver dem(cloud, scenario, config);
   dm::SolveControl control;
@@ -148,6 +178,7 @@ int main(int argc, char** argv) {
   }
   const double wall = bench::since(start) - spent_wall, cpu = bench::processCpuSeconds() - cpu0 - spent_cpu;
   const Reading r = read(dem, cloud, mc, reference);
+  if (!reference.empty() && a.count("bands")) printBands(text(a, "bands", ""), cloud.positions, dem.predict(cloud.positions), reference);
   char tip_error[48] = "";  // against the reference code's Beam3D tip; other scenarios have none
   if (name == "beam3d") std::snprintf(tip_error, sizeof tip_error, " (%+.2f %% vs -1.2054)", 100 * (r.tip / -1.2054 - 1));
   std::printf("RESULT %s 1/%d: wall %.2f s, cpu %.2f s, its %d, energy %.6g, residual %.3g, tip %+.5f%s, rel L2 %.3f "

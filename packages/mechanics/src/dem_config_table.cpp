@@ -61,6 +61,8 @@ std::vector<Field> trainingFields(DemConfig& c) {
       integer(gn, "sample", c.gauss_newton.sample, 1, kMany, "Gauss points the Gauss-Newton matrix is formed on"),
       number(gn, "damping", c.gauss_newton.damping, 0, true, kInf,
              "initial Levenberg-Marquardt damping, relative to the matrix's mean diagonal"),
+      flag(gn, "spread", c.gauss_newton.spread,
+           "draw the matrix's points systematically in proportion to their weights (false: uniformly)"),
   };
 }
 

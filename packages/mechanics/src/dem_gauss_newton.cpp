@@ -15,6 +15,9 @@
 #include <iostream>
 #include <limits>
 #include <numeric>
+#include <random>
+#include <utility>
+#include <vector>
 
 #include "demnerf/core/error.hpp"
 #include "dem_solver_impl.hpp"
@@ -110,6 +113,28 @@ void assign(DisplacementMlp& net, const Tensor& theta) {
     }
 }
 
+// The points G is formed on and their weights, which sum to the quadrature's total. Uniform: m
+// distinct indices (a partial shuffle of `order`), weights rescaled to the total. Spread:
+// systematic sampling on the weights' running sum from one random offset, each pick weighing
+// total / m (a point heavier than that can be picked twice): every stretch of the cells' order,
+// so every part of the body, is in every draw, and a cut cell's light centroid point comes up in
+// proportion to its volume, not as often as a whole cell's Gauss point.
+std::pair<Tensor, Tensor> metricDraw(const Tensor& vol, long m, bool spread, std::vector<long>& order, std::mt19937& rng) {
+  const long nq = vol.size(0);
+  if (!spread) {
+    for (long i = 0; i < m; ++i) std::swap(order[i], order[i + std::uniform_int_distribution<long>(0, nq - 1 - i)(rng)]);
+    const Tensor idx = torch::tensor(std::vector<long>(order.begin(), order.begin() + m), torch::kLong);
+    const Tensor w = vol.index_select(0, idx);
+    return {idx, w * (vol.sum().item<double>() / w.sum())};
+  }
+  const Tensor running = vol.to(torch::kFloat64).cumsum(0);
+  const double total = running[nq - 1].item<double>(), stride = total / static_cast<double>(m);
+  const double offset = std::uniform_real_distribution<double>(0.0, stride)(rng);
+  const Tensor at = torch::arange(m, torch::kFloat64) * stride + offset;
+  const Tensor idx = torch::searchsorted(running, at, false, true).clamp_max(nq - 1);
+  return {idx, torch::full({m}, stride, vol.options())};
+}
+
 }  // namespace
 
 bool DemSolver::Impl::gaussNewtonAvailable() const {
@@ -133,7 +158,6 @@ void DemSolver::Impl::gaussNewton(double scale, int& iterations) {
   metric.load_scale = scale;
   std::vector<long> order(nq);
   std::iota(order.begin(), order.end(), 0L);
-  const double total_weight = draw.vol.sum().item<double>();
   double damping = config.gauss_newton.damping;
   // Every step is sampled: a step moves the field as much as many L-BFGS evaluations, and the
   // guard's energy (~1 fused evaluation) is small against a step. Its verdict supersedes the
@@ -153,12 +177,10 @@ void DemSolver::Impl::gaussNewton(double scale, int& iterations) {
     if (!std::isfinite(e0)) return;
     double accepted = energy;
     const Tensor grad = flatten(net, true), theta = flatten(net, false);
-    for (long i = 0; i < m; ++i) std::swap(order[i], order[i + std::uniform_int_distribution<long>(0, nq - 1 - i)(rng)]);
-    const Tensor idx = torch::tensor(std::vector<long>(order.begin(), order.begin() + m), torch::kLong);
-    const Tensor w = draw.vol.index_select(0, idx);
+    const auto [idx, w] = metricDraw(draw.vol, m, config.gauss_newton.spread, order, rng);
     const Tensor lift[4] = {draw.lift[0].index_select(0, idx), draw.lift[1].index_select(0, idx),
                             draw.lift[2].index_select(0, idx), draw.lift[3].index_select(0, idx)};
-    const Tensor A = strainJacobianRows(net, draw.x.index_select(0, idx), lift, w * (total_weight / w.sum()), metric);
+    const Tensor A = strainJacobianRows(net, draw.x.index_select(0, idx), lift, w, metric);
     const Tensor G = torch::mm(A.t(), A).to(torch::kFloat64);
     const double diagonal = G.diagonal().mean().item<double>();
     const Tensor eye = torch::eye(G.size(0), G.options());

@@ -123,6 +123,24 @@ TEST(DemMlp, GaussNewtonReachesTheCheckedEquilibriumInFewSteps) {
   EXPECT_GT(std::abs(tips[1] + 1.2054), 2 * std::abs(tips[0] + 1.2054));
 }
 
+// gauss_newton.spread changes only how G is estimated (points drawn in proportion to their weights
+// along the cells' order), not the energy minimised: the same cantilever must reach the same
+// checked equilibrium with it, here on a draw of 60 points.
+TEST(DemMlp, GaussNewtonOnSpreadDrawsReachesTheSameEquilibrium) {
+  const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(4, 1, 1), Eigen::Vector3i(12, 3, 3));
+  dm::DemConfig config = dm::paperDemConfig();
+  config.network.width = 10;
+  config.network.depth = 2;
+  config.threads = 1;
+  config.lbfgs.iterations = 0;
+  config.gauss_newton.steps = 40;
+  config.gauss_newton.sample = 60;
+  config.gauss_newton.spread = true;
+  dm::DemSolver dem(cloud, beam3d(), config);
+  ASSERT_NO_THROW(dem.solve());  // a refusal by the equilibrium check fails here
+  EXPECT_NEAR(dem.predict({Vector3d(4, 0.5, 0.5)})[0].y(), -1.2054, 0.05 * 1.2054);
+}
+
 // The Gauss-Newton steps need the fused kernel's MLP on the cell quadrature: asked for elsewhere
 // (here with autograd's loss), the solve says so instead of training something else.
 TEST(DemMlp, GaussNewtonOutsideTheMlpAloneIsAnError) {

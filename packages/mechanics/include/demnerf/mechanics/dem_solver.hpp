@@ -90,6 +90,11 @@ struct DemGaussNewtonConfig {
   int steps = 0;          ///< steps per load step; 0: off (0)
   int sample = 1000;      ///< Gauss points G is formed on, drawn afresh each step (1000)
   double damping = 1e-3;  ///< mu's start, relative to G's mean diagonal (1e-3)
+  /// The draw: `spread` picks the points systematically along the cells' order with probability
+  /// proportional to their weights (each then weighs total / sample), so every part of the body
+  /// is in every draw and cut cells' light points are not drawn as often as whole cells' (false:
+  /// a uniform draw of indices, weights rescaled to the total)
+  bool spread = false;
 };
 
 /// The B-spline feature grid u = g + D o c (z(X) + N(X) C), C solved by Newton (exact boundary,
