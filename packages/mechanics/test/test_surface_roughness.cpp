@@ -83,6 +83,15 @@ TEST(SurfaceRoughness, OnlyARoughBodysGridIsRefined) {
   config.grid.surface_cells = 20;  // sqrt(A / 20) = 71 mm, above the body's rules
   EXPECT_NEAR(resolvedDemConfig(config, bumpyBox(cells, 1e-3, 8e-3)).config.grid.cell, std::sqrt(0.1 / 20), 1e-9);
   config.grid.surface_cells = DemGridConfig{}.surface_cells;
+  // Fewer particles (686) than the finer grid has body cells (2e-3 m^3 at 10.7 mm: ~1,650) keep the
+  // cell, though their surface reads rough and 0.6 of their 14 mm spacing would allow the finer one.
+  const Eigen::Vector3i sparse(14, 7, 7);
+  const core::ParticleCloud sparse_rough = bumpyBox(sparse, 1e-3, 30e-3);
+  const double radius = std::max(2 * flat, 3 * surfaceParticleSpacing(sparse_rough));
+  ASSERT_GT(surfaceRoughness(sparse_rough, radius), config.grid.rough_surface * radius);
+  ASSERT_LT(0.6 * resolvedDemConfig(config, sparse_rough).spacing, config.grid.rough_cell_ratio * flat);  // the cells' floor
+  EXPECT_NEAR(resolvedDemConfig(config, sparse_rough).config.grid.cell,
+              resolvedDemConfig(config, bumpyBox(sparse, 0.0, 30e-3)).config.grid.cell, 1e-12);
   // Never finer than 0.6 particle spacings: 25 mm particles keep their 15 mm cells.
   const Eigen::Vector3i coarse(8, 4, 4);
   EXPECT_NEAR(resolvedDemConfig(config, bumpyBox(coarse, 1e-3, 8e-3)).config.grid.cell,

@@ -113,7 +113,8 @@ struct DemGridConfig {
   double surface_cells = 2000.0;
   /// With body_cells: a rough surface gets cells rough_cell_ratio times finer. Rough: its particles
   /// scatter about their local quadric (fitted over two cells) by more than this share of that
-  /// radius; a NeRF extraction's bumps, not an exact mesh's faces or smooth curves (0.005; 0: off)
+  /// radius; a NeRF extraction's bumps, not an exact mesh's faces or smooth curves. A cloud with
+  /// fewer particles than the finer grid has body cells keeps its cell (0.005; 0: off)
   double rough_surface = 0.005;
   double rough_cell_ratio = 0.8;  ///< cell factor on a rough surface, in (0, 1] (0.8)
   int degree = 2;                 ///< 1 trilinear, 2 C1 quadratic, 3 C2 cubic (2)
