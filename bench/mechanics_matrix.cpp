@@ -92,9 +92,9 @@ Settings parseSettings(int argc, char** argv) {
   s.nerf_seconds = num("nerf_seconds", s.nerf_seconds);
   s.nerf_cpu_seconds = num("nerf_cpu_seconds", s.nerf_cpu_seconds);
   for (const auto& [key, value] : {std::pair<const char*, int*>{"mlp_iters", &s.mlp_iters}, {"mlp_lbfgs", &s.mlp_lbfgs},
-                                   {"gn_steps", &s.gn_steps}, {"ref_div", &s.ref_div}, {"conv_div", &s.conv_div}})
+                                   {"gn_steps", &s.gn_steps}, {"ref_div", &s.ref_div}, {"conv_div", &s.conv_div},
+                                   {"seed", &s.seed}})
     *value = static_cast<int>(num(key, *value));
-  s.seed = static_cast<int>(num("seed", s.seed));
   s.grid_spacings = num("grid_spacings", s.grid_spacings);
   s.extension_fill = num("ext_fill", s.extension_fill);
   s.body_cells = num("body_cells", s.body_cells);

@@ -117,13 +117,13 @@ inline BodyBox bodyBox(const core::ParticleCloud& cloud) {
   return {0.5 * (lo + hi), (0.5 * (hi - lo)).cwiseMax(1e-9 * (hi - lo).norm() + 1e-12), (hi - lo).maxCoeff()};
 }
 
+/// Every core of the machine (at least one).
+inline int allCores() { return static_cast<int>(std::max(1u, std::thread::hardware_concurrency())); }
+
 /// Torch and BLAS threads for a solve, set on the solving thread when it starts (not in a
 /// constructor): `threads` when > 0, else one thread below 50k particles (fastest for
 /// product-size clouds on shared 2-core machines) and every core above, where the threads'
 /// synchronisation pays off. The process's own count is dem_nerf::configureRuntime's.
-/// Every core of the machine (at least one).
-inline int allCores() { return static_cast<int>(std::max(1u, std::thread::hardware_concurrency())); }
-
 inline void setSolverThreads(int threads, std::size_t particles) {
   const int n = threads > 0 ? threads : particles < 50000 ? 1 : allCores();
   at::set_num_threads(n);
