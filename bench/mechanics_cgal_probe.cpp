@@ -1,8 +1,11 @@
 // Where the CGAL reference mesh of a surface spends its size and time (issue 13, the NeRF cuboid):
 // the sharp creases it would protect, the tetrahedra it makes at mesh size `cell`, and the CPU
 // seconds of meshing, of locating points in the mesh and (solve=1) of the TET10 solve.
-//   mechanics_cgal_probe mesh=SURFACE.ply cell=0.0167 [facet_distance=M] [angle=60]
-//       [max_dangling=0.25] [particles=P.ply] [scenario=S.yaml solve=0|1]
+// With surface_of=P.ply instead of mesh=, the surface is the one the cloud's surface particles
+// describe (surfaceOfParticles every `step` m, default cell / 3, as the FEM builds it for a cloud
+// without --mesh), written to write=M.ply when asked, with its CPU seconds.
+//   mechanics_cgal_probe mesh=SURFACE.ply|surface_of=P.ply cell=0.0167 [step=S] [write=M.ply]
+//       [facet_distance=M] [angle=60] [max_dangling=0.25] [particles=P.ply] [scenario=S.yaml solve=0|1]
 #include <algorithm>
 #include <cstdio>
 #include <ctime>
@@ -13,7 +16,7 @@
 #include "demnerf/core/scenario.hpp"
 #include "demnerf/mechanics/cgal_tet_mesh.hpp"
 #include "demnerf/mechanics/fem_solver.hpp"
-#include "demnerf/mechanics/sharp_features.hpp"
+#include "demnerf/mechanics/particle_surface.hpp"
 #include "demnerf/mechanics/sharp_features.hpp"
 
 namespace dm = demnerf::mechanics;
@@ -32,9 +35,18 @@ int main(int argc, char** argv) {
     if (eq != std::string::npos) a[s.substr(0, eq)] = s.substr(eq + 1);
   }
   const auto num = [&](const char* k, double d) { return a.count(k) ? std::stod(a[k]) : d; };
-  const core::TriangleMesh surface = core::readMesh(a.at("mesh"));
   dm::CgalMeshConfig config;
   config.cell = num("cell", 0.0);
+  core::TriangleMesh surface;
+  if (a.count("surface_of")) {
+    const double t0 = cpuSeconds();
+    surface = dm::surfaceOfParticles(core::readParticles(a["surface_of"]), num("step", config.cell / 3.0));
+    std::printf("surface of the particles: %zu faces, %.2f CPU s\n", surface.faces.size(), cpuSeconds() - t0);
+    if (a.count("write")) core::writeMesh(a["write"], surface);
+    config.protect_creases = false;  // as the FEM meshes it
+  } else {
+    surface = core::readMesh(a.at("mesh"));
+  }
   config.facet_distance = num("facet_distance", config.facet_distance);
   config.feature_angle = num("angle", config.feature_angle);
   config.max_dangling_fraction = num("max_dangling", config.max_dangling_fraction);
@@ -49,7 +61,8 @@ int main(int argc, char** argv) {
               config.feature_angle, total * 1e3);
   if (!curves.empty())
     std::printf(", length median %.2f mm, max %.1f mm", curves[curves.size() / 2].length * 1e3, curves.back().length * 1e3);
-  std::printf("; dangling %.1f mm; protected: %s\n", dangling * 1e3, dm::creasesAreNoise(surface, config) ? "none" : "all");
+  std::printf("; dangling %.1f mm; protected: %s\n", dangling * 1e3,
+              config.protect_creases && !dm::creasesAreNoise(surface, config) ? "all" : "none");
   double t = cpuSeconds();
   const dm::TetMesh mesh = dm::cgalMeshFromSurface(surface, config);
   std::printf("mesh: cell %g m: %zu tets, %zu nodes (%zu dofs), %.1f CPU s\n", config.cell, mesh.elements.size(),

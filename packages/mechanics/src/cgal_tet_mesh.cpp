@@ -136,7 +136,7 @@ TetMesh cgalMeshFromSurface(const core::TriangleMesh& surface, const CgalMeshCon
   // below the cell (CGAL shrinks its protecting balls where creases run close): NeRF cuboid, cell
   // 16.7 mm: 129,733 tetrahedra with them, 2,950 without. Its bumps are then followed to within
   // facet_distance like any curved face.
-  if (!creasesAreNoise(surface, config)) domain.detect_features(config.feature_angle);
+  if (config.protect_creases && !creasesAreNoise(surface, config)) domain.detect_features(config.feature_angle);
   namespace p = CGAL::parameters;
   const Criteria criteria(p::edge_size = cell, p::facet_angle = 25, p::facet_size = cell,
                           p::facet_distance = facet_distance, p::cell_radius_edge_ratio = 3, p::cell_size = cell);

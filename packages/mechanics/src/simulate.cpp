@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <sstream>
 
 #include "demnerf/core/error.hpp"
@@ -11,6 +12,7 @@
 #include "demnerf/mechanics/cgal_tet_mesh.hpp"
 #include "demnerf/mechanics/dem_model_io.hpp"
 #include "demnerf/mechanics/mesh_size.hpp"
+#include "demnerf/mechanics/particle_surface.hpp"
 
 namespace demnerf::mechanics {
 
@@ -33,17 +35,16 @@ const char* solverName(SolverChoice solver) {
 namespace {
 
 /// The voxel (or CGAL) cell of an automatic FEM mesh: from the body and the accuracy asked for,
-/// not from how finely it was sampled. Voxels of particles are a whole number of the particles'
-/// own cells (no finer: empty cells would be holes), so a grid-sampled body keeps its faces; over
-/// a cloud that is no lattice, at least two, which the particles fill to half on any sampler.
-/// One-spacing voxels of a Poisson cloud can meet only at an edge, a hinge on which Newton
-/// stalled (the NeRF's sparse particles in the dem_node_render rostest, one run in five).
-VoxelMeshConfig femVoxels(const core::ParticleCloud& cloud, const SimulateOptions& options) {
-  VoxelMeshConfig voxel = options.voxel;
+/// not from how finely it was sampled. Voxels of particles (a cloud whose particles do not place
+/// its surface) are a whole number of the particles' own cells (no finer: empty cells would be
+/// holes), so a grid-sampled body keeps its faces; over a cloud that is no lattice, at least two,
+/// which the particles fill to half on any sampler. One-spacing voxels of a Poisson cloud can meet
+/// only at an edge, a hinge on which Newton stalled.
+VoxelMeshConfig femVoxels(const core::ParticleCloud& cloud, const core::TriangleMesh* surface, VoxelMeshConfig voxel) {
   if (voxel.cell != 0.0) return voxel;
-  const BodyMeasures body = options.surface ? measureSurface(*options.surface) : measureParticles(cloud);
+  const BodyMeasures body = surface ? measureSurface(*surface) : measureParticles(cloud);
   voxel.cell = automaticCell(body, MeshSizeRule{voxel.elements_across, voxel.max_dofs, voxel.order});
-  if (!options.surface) {
+  if (!surface) {
     const double spacing = medianParticleEdge(cloud);
     const double fewest = particlesFormALattice(cloud) ? 1.0 : 2.0;
     if (spacing > 0.0) voxel.cell = spacing * std::max(fewest, std::round(voxel.cell / spacing));
@@ -52,13 +53,14 @@ VoxelMeshConfig femVoxels(const core::ParticleCloud& cloud, const SimulateOption
 }
 
 /// Says what is being built before the (uninterruptible) meshing and first factorisation.
-void reportMeshing(const core::ParticleCloud& cloud, const SimulateOptions& options, const VoxelMeshConfig& voxel,
-                   bool cgal, SolveClock& clock) {
+void reportMeshing(const core::ParticleCloud& cloud, const core::TriangleMesh* surface, bool of_particles,
+                   const VoxelMeshConfig& voxel, bool cgal, SolveClock& clock) {
   SolveProgress meshing;
-  const double volume = options.surface ? measureSurface(*options.surface).volume : measureParticles(cloud).volume;
+  const double volume = surface ? measureSurface(*surface).volume : measureParticles(cloud).volume;
   std::ostringstream phase;
   phase << (cgal ? "mesh (CGAL, " : "mesh (voxels, ") << (voxel.order == 2 ? "TET10" : "TET4") << ", cell "
-        << voxel.cell * 1e3 << " mm, ~" << std::lround(expectedDofs(volume, voxel.cell, voxel.order)) << " dofs)";
+        << voxel.cell * 1e3 << " mm, ~" << std::lround(expectedDofs(volume, voxel.cell, voxel.order)) << " dofs"
+        << (of_particles ? ", of the particles' surface)" : ")");
   meshing.phase = phase.str();
   meshing.residual = std::numeric_limits<double>::quiet_NaN();
   clock.report(meshing, true);
@@ -67,16 +69,17 @@ void reportMeshing(const core::ParticleCloud& cloud, const SimulateOptions& opti
 /// The FEM's mesh of the body: CGAL from the surface, or voxels of the surface or the particles;
 /// specks of a reconstructed body that touch no fixture are dropped (they would make the
 /// stiffness singular).
-TetMesh femMesh(const core::ParticleCloud& cloud, const core::Scenario& scenario, const SimulateOptions& options,
-                const VoxelMeshConfig& voxel, bool cgal) {
+TetMesh femMesh(const core::ParticleCloud& cloud, const core::Scenario& scenario, const core::TriangleMesh* surface,
+                bool of_particles, const VoxelMeshConfig& voxel, bool cgal) {
   TetMesh mesh;
   if (cgal) {
     CgalMeshConfig config;
     config.cell = voxel.cell;
     config.order = voxel.order;
-    mesh = cgalMeshFromSurface(*options.surface, config);
-  } else if (options.surface) {
-    mesh = voxelMeshFromSurface(*options.surface, voxel);
+    config.protect_creases = !of_particles;
+    mesh = cgalMeshFromSurface(*surface, config);
+  } else if (surface) {
+    mesh = voxelMeshFromSurface(*surface, voxel);
   } else {
     mesh = voxelMeshFromParticles(cloud, voxel);
   }
@@ -101,13 +104,30 @@ void solveDem(const core::ParticleCloud& cloud, const core::Scenario& scenario, 
   if (!options.dem_model_path.empty()) saveDemModel(dem, options.dem_model_path);
 }
 
+/// The surface a sampled cloud's surface particles describe (surfaceOfParticles, sampled every
+/// third of the cell), which the FEM meshes as it meshes a given surface, whichever sampler made
+/// the cloud; none for a cloud whose particles do not place it. Voxel blocks that the particles
+/// fill were ~40 mm on a Poisson cloud of the 0.125 m test cuboid (1.7x the energy of the body's
+/// mesh) and left random clouds of the T-bar 37 % too soft (docs/dem_feature_grid.md, "The FEM on
+/// a cloud without its surface").
+std::optional<core::TriangleMesh> particleSurface(const core::ParticleCloud& cloud, const VoxelMeshConfig& voxel) {
+  if (!particlesDescribeSurface(cloud)) return std::nullopt;
+  const double cell =
+      voxel.cell > 0.0 ? voxel.cell
+                       : automaticCell(measureParticles(cloud), MeshSizeRule{voxel.elements_across, voxel.max_dofs, voxel.order});
+  return surfaceOfParticles(cloud, cell / 3.0);
+}
+
 void solveFem(const core::ParticleCloud& cloud, const core::Scenario& scenario, const SimulateOptions& options,
               SimulationOutcome& out) {
   SolveClock clock(options.control, "fem");
-  const bool cgal = options.surface && options.mesher == SimulateOptions::Mesher::kCgal;
-  const VoxelMeshConfig voxel = femVoxels(cloud, options);
-  reportMeshing(cloud, options, voxel, cgal, clock);
-  TetMesh mesh = femMesh(cloud, scenario, options, voxel, cgal);
+  const std::optional<core::TriangleMesh> of_particles =
+      options.surface ? std::nullopt : particleSurface(cloud, options.voxel);
+  const core::TriangleMesh* surface = options.surface ? &*options.surface : of_particles ? &*of_particles : nullptr;
+  const bool cgal = surface && options.mesher == SimulateOptions::Mesher::kCgal;
+  const VoxelMeshConfig voxel = femVoxels(cloud, surface, options.voxel);
+  reportMeshing(cloud, surface, of_particles.has_value(), voxel, cgal, clock);
+  TetMesh mesh = femMesh(cloud, scenario, surface, of_particles.has_value(), voxel, cgal);
   out.mesh_nodes = static_cast<int>(mesh.nodes.size());
   out.mesh_elements = static_cast<int>(mesh.elements.size());
   out.mesh_cell = voxel.cell;

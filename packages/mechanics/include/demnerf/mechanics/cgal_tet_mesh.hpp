@@ -21,6 +21,10 @@ struct CgalMeshConfig {
   /// cuboid and T-bar: 63 % and 79 %, the exact ones 0 %). Then no crease is protected: protecting
   /// them made tetrahedra far below `cell` (NeRF cuboid, cell 16.7 mm: 129,733 instead of 2,950).
   double max_dangling_fraction = 0.25;
+  /// false: protect no crease whatever the surface (one reconstructed from particles, whose
+  /// creases are the sampling grid's and whose count of dangling ones sits near any threshold:
+  /// protected, they stalled Mesh_3 for minutes on a 0.125 m cuboid).
+  bool protect_creases = true;
   int order = 2;  ///< 1: TET4, 2: TET10 (straight edge midpoints, elevateToQuadratic)
   /// Seed of CGAL's random generator (initial surface points): the same seed gives nearly the same
   /// mesh; calls may differ by a few tetrahedra (CGAL orders some containers by address, see the .cpp).
