@@ -154,7 +154,29 @@ bool ParticleInsideTest::nearSurface(const Eigen::Vector3d& x, Nearby&& nearby, 
   int active = nearest;
   d = distanceNear(x, nearest, nearby, active);
   if (normal) *normal = normals_[active].normalized();
+  // Behind some tangent plane, yet farther from every surface particle than an inside point is
+  // from some particle (deepSide()'s rule): a plane extended past where its face ends. In the
+  // re-entrant corners of the NeRF T-bar's 1/6 clouds (10 mm), under the crossbar beside the stem,
+  // points 16-19 mm from every particle counted as body (0.3-0.5 cm^3 of them); a finer grid's
+  // first Hessian was indefinite there (7 Newton iterations instead of 4; docs/dem_feature_grid.md).
+  const double deep = kDeepReach * spacing_;
+  if (d <= 0 && nearest_d2 > deep * deep) {
+    const double carrier = nearestCarrier(x, bucket(x));
+    if (carrier > deep) d = carrier - deep;
+  }
   return true;
+}
+
+double ParticleInsideTest::nearestCarrier(const Eigen::Vector3d& x, const Eigen::Vector3i& c) const {
+  const int rings = static_cast<int>(std::ceil(kDeepReach * spacing_ / bucket_)) + 1;
+  double best = std::numeric_limits<double>::infinity();
+  for (int z = -rings; z <= rings; ++z)
+    for (int y = -rings; y <= rings; ++y)
+      for (int xx = -rings; xx <= rings; ++xx)
+        forEachIn(c + Eigen::Vector3i(xx, y, z), [&](int i) {
+          if (carries_[i]) best = std::min(best, (positions_[i] - x).squaredNorm());
+        });
+  return std::sqrt(best);
 }
 
 double ParticleInsideTest::deepSide(const Eigen::Vector3d& x, const Eigen::Vector3i& c) const {

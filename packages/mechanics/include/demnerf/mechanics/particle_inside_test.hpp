@@ -1,8 +1,9 @@
 #pragma once
 // Is a point inside the body a particle cloud describes? Within two particle spacings of surface
 // particles (area > 0, outward unit normal): when it lies behind the nearest one's tangent plane
-// (with its neighbours' across an edge); farther from them, when the nearest particle carries
-// volume and lies within 1.5 spacings. The cloud alone is enough, whichever sampler
+// (with its neighbours' across an edge), and beyond 1.5 spacings of them only with a volume-carrying
+// particle within 1.5 spacings; farther from them, when the nearest particle carries volume and
+// lies within 1.5 spacings. The cloud alone is enough, whichever sampler
 // (random, Poisson disk, grid, a NeRF extraction) made it, so quadratures built on this test do not
 // depend on how the particles were placed.
 
@@ -77,6 +78,9 @@ class ParticleInsideTest {
   bool nearSurface(const Eigen::Vector3d& x, Nearby&& nearby, Eigen::Vector3d* normal, double& d) const;
   template <typename Nearby>
   double distanceNear(const Eigen::Vector3d& x, int nearest, Nearby&& nearby, int& active) const;
+  /// Distance to the nearest volume-carrying particle within kDeepReach spacings of x (bucket c);
+  /// infinity when there is none.
+  double nearestCarrier(const Eigen::Vector3d& x, const Eigen::Vector3i& c) const;
   /// Beyond the surface particles' reach: inside or outside from the nearest particle (bucket c).
   double deepSide(const Eigen::Vector3d& x, const Eigen::Vector3i& c) const;
   static constexpr int kNearRings = 2;  ///< ceil(kSurfaceRadius): buckets searched for surface particles
