@@ -63,6 +63,8 @@ std::vector<Field> trainingFields(DemConfig& c) {
              "initial Levenberg-Marquardt damping, relative to the matrix's mean diagonal"),
       flag(gn, "spread", c.gauss_newton.spread,
            "draw the matrix's points systematically in proportion to their weights (false: uniformly)"),
+      flag(gn, "current_tangent", c.gauss_newton.current_tangent,
+           "form the matrix with the material's tangent at the current strain (false: at zero strain)"),
   };
 }
 

@@ -139,8 +139,20 @@ struct DemSolver::Impl {
   bool gaussNewtonAvailable() const;
   void gaussNewton(double scale, int& iterations);
   void rescaleOutput(double scale);
-  std::vector<Tensor> snapshot() const { return torch_support::snapshot(parameters()); }
-  void restore(const std::vector<Tensor>& s) { torch_support::restore(parameters(), s); }
+  /// The parameters and, last, the output and energy scales: balanceOutput() moves the output's
+  /// amplitude between the last layer and out_scale, so weights restored without the scale they
+  /// were saved with give another field (a Gauss-Newton guard's kept state came back 2.3x too
+  /// large, inverted, after a balance during the self-weight block's fold).
+  std::vector<Tensor> snapshot() const {
+    std::vector<Tensor> s = torch_support::snapshot(parameters());
+    s.push_back(torch::tensor({out_scale, energy_scale}, torch::kFloat64));
+    return s;
+  }
+  void restore(const std::vector<Tensor>& s) {
+    torch_support::restore(parameters(), s);
+    out_scale = s.back()[0].item<double>();
+    energy_scale = s.back()[1].item<double>();
+  }
 
   // dem_grid_solve.cpp
   void buildGridQuadrature();

@@ -62,6 +62,7 @@ TEST(SolverConfig, GaussNewtonFileTurnsTheMlpPresetIntoGaussNewtonSteps) {
   EXPECT_EQ(o.dem.gauss_newton.steps, 80);
   EXPECT_EQ(o.dem.gauss_newton.sample, 500);
   EXPECT_TRUE(o.dem.gauss_newton.spread);
+  EXPECT_TRUE(o.dem.gauss_newton.current_tangent);
   EXPECT_EQ(o.dem.boundary.kind, dm::DemConfig::Boundary::kExact);
   EXPECT_GT(o.dem.lbfgs.cell_spacings, 0.0);  // Gauss-Newton needs the cell quadrature
   EXPECT_EQ(o.dem.grid.body_cells, 0.0);      // the MLP alone, no feature grid

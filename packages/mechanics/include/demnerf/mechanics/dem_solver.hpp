@@ -95,6 +95,10 @@ struct DemGaussNewtonConfig {
   /// is in every draw and cut cells' light points are not drawn as often as whole cells' (false:
   /// a uniform draw of indices, weights rescaled to the total)
   bool spread = false;
+  /// C at each drawn point's current strain (the Neo-Hookean's tangent; the decoupled law keeps
+  /// zero strain) instead of at zero strain: what the self-weight block's compressed base needs
+  /// (false)
+  bool current_tangent = false;
 };
 
 /// The B-spline feature grid u = g + D o c (z(X) + N(X) C), C solved by Newton (exact boundary,
