@@ -177,10 +177,12 @@ const char* usage() {
       << ": 1 below 50k particles, else all cores;\n"
          "                         the MLP's fused kernel: one per 1000 points, up to all cores)\n"
          "FEM:\n"
-         "  --mesh M.ply           mesh this closed surface (default: voxels of the cells that hold particles)\n"
+         "  --mesh M.ply           mesh this closed surface (default: the surface the particles' normals describe,\n"
+         "                         as `demnerf sample` makes them; particles without normals: their cells)\n"
          "  --mesher cgal|voxel    default "
       << (d.mesher == mechanics::SimulateOptions::Mesher::kCgal ? "cgal" : "voxel")
-      << ": CGAL Mesh_3 tetrahedra that follow --mesh; voxel: voxels inside it\n"
+      << ": CGAL Mesh_3 tetrahedra that follow the surface; voxel: voxels inside --mesh,\n"
+         "                         or without it the blocks of particle cells the particles fill\n"
          "  --cell H               default "
       << number(d.voxel.cell)
       << " (automatic): mesh size in m (hex edge, or CGAL tetrahedron edge)\n"

@@ -39,7 +39,8 @@ core::TriangleMesh surfaceOfParticles(const core::ParticleCloud& cloud, double s
     }
   const Eigen::Vector3d intervals = ((upper - lower) / step).array().ceil().max(1.0);
   if ((intervals.array() + 6.0).prod() > 2e7)
-    throw core::Error("particle surface: a step of " + std::to_string(step) + " m gives too many samples; use a larger one");
+    throw core::Error("particle surface: a step of " + std::to_string(step) +
+                      " m gives too many samples; use a larger one");
   geometry::DensityGrid field;
   for (int a = 0; a < 3; ++a) field.spacing(a) = upper(a) > lower(a) ? (upper(a) - lower(a)) / intervals(a) : step;
   field.origin = lower - 2.5 * field.spacing;

@@ -105,26 +105,27 @@ void solveDem(const core::ParticleCloud& cloud, const core::Scenario& scenario, 
 }
 
 /// The surface a sampled cloud's surface particles describe (surfaceOfParticles, sampled every
-/// third of the cell), which the FEM meshes as it meshes a given surface, whichever sampler made
-/// the cloud; none for a cloud whose particles do not place it. Voxel blocks that the particles
+/// third of the cell), which the FEM's CGAL mesher meshes as it meshes a given surface, whichever
+/// sampler made the cloud; none for a cloud whose particles do not place it. (The voxel mesher
+/// keeps the blocks of particle cells: a lattice's own cells, nodes on its faces.) Voxel blocks that the particles
 /// fill were ~40 mm on a Poisson cloud of the 0.125 m test cuboid (1.7x the energy of the body's
 /// mesh) and left random clouds of the T-bar 37 % too soft (docs/dem_feature_grid.md, "The FEM on
 /// a cloud without its surface").
 std::optional<core::TriangleMesh> particleSurface(const core::ParticleCloud& cloud, const VoxelMeshConfig& voxel) {
   if (!particlesDescribeSurface(cloud)) return std::nullopt;
-  const double cell =
-      voxel.cell > 0.0 ? voxel.cell
-                       : automaticCell(measureParticles(cloud), MeshSizeRule{voxel.elements_across, voxel.max_dofs, voxel.order});
+  const MeshSizeRule rule{voxel.elements_across, voxel.max_dofs, voxel.order};
+  const double cell = voxel.cell > 0.0 ? voxel.cell : automaticCell(measureParticles(cloud), rule);
   return surfaceOfParticles(cloud, cell / 3.0);
 }
 
 void solveFem(const core::ParticleCloud& cloud, const core::Scenario& scenario, const SimulateOptions& options,
               SimulationOutcome& out) {
   SolveClock clock(options.control, "fem");
+  const bool cgal_mesher = options.mesher == SimulateOptions::Mesher::kCgal;
   const std::optional<core::TriangleMesh> of_particles =
-      options.surface ? std::nullopt : particleSurface(cloud, options.voxel);
+      options.surface || !cgal_mesher ? std::nullopt : particleSurface(cloud, options.voxel);
   const core::TriangleMesh* surface = options.surface ? &*options.surface : of_particles ? &*of_particles : nullptr;
-  const bool cgal = surface && options.mesher == SimulateOptions::Mesher::kCgal;
+  const bool cgal = surface && cgal_mesher;
   const VoxelMeshConfig voxel = femVoxels(cloud, surface, options.voxel);
   reportMeshing(cloud, surface, of_particles.has_value(), voxel, cgal, clock);
   TetMesh mesh = femMesh(cloud, scenario, surface, of_particles.has_value(), voxel, cgal);

@@ -86,7 +86,8 @@ std::vector<Field> fields(SimulateOptions& o) {
                  "automatic FEM cell: coarsened until the mesh is expected to hold at most this many dofs")});
   using M = SimulateOptions::Mesher;
   append({choice<M>("", "mesher", o.mesher, {{"cgal", M::kCgal}, {"voxel", M::kVoxel}},
-                    "how the FEM meshes a surface (--mesh)")});
+                    "how the FEM meshes: cgal follows --mesh or the particles' surface; "
+                    "voxel: voxels of --mesh or blocks of particle cells")});
   append({number("control", "time_limit", o.control.time_limit, 0, false, kInf, "s per solve (0: no limit)"),
           number("control", "progress_interval", o.control.progress_interval, 0, false, kInf,
                  "s between progress reports")});

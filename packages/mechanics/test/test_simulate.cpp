@@ -150,17 +150,17 @@ core::ParticleCloud withoutNormals(core::ParticleCloud cloud) {
 }  // namespace
 
 TEST(Simulate, FemOnParticlesReproducesUniaxialTraction) {
-  // Without normals the particles' own cells are the voxels, which a lattice fills exactly. (With
-  // them the FEM meshes the surface they describe, whose chamfered edges leave the rollers' band:
+  // The voxel mesher over particles: their own cells, which a lattice fills exactly. (CGAL meshes
+  // the surface they describe, whose chamfered edges leave the rollers' band:
   // FemOnASampledCloudMeshesTheBodyWhicheverSampler.)
-  const core::ParticleCloud cloud =
-      withoutNormals(dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(2, 1, 1), Eigen::Vector3i(4, 2, 2)));
+  const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(2, 1, 1), Eigen::Vector3i(4, 2, 2));
   const core::Scenario s = uniaxial(2e5, 2.0);
   double b = 0;
   const double a = dm::uniaxialStretchForStress(*dm::makeMaterial(s.material), 2e5, &b);
   for (bool with_surface : {false, true}) {
     dm::SimulateOptions options;
     options.voxel.order = 1;
+    options.mesher = dm::SimulateOptions::Mesher::kVoxel;
     if (with_surface) {
       options.surface = boxSurface(Vector3d(0, 0, 0), Vector3d(2, 1, 1));
       options.voxel.cell = 0.5;

@@ -52,7 +52,8 @@ struct Uniaxial {
   dm::SimulationOutcome solve(double p11, bool keep_mesh) const {
     dm::SimulateOptions options;
     options.voxel.order = 1;
-    options.voxel.cell = 0.25;  // the particles' own cells: mesh nodes on the fixture faces
+    options.mesher = dm::SimulateOptions::Mesher::kVoxel;  // the particles' own cells:
+    options.voxel.cell = 0.25;                                // mesh nodes on the fixture faces
     options.keep_fem_mesh = keep_mesh;
     return dm::simulate(cloud, dm::uniaxialTractionScenario(p11), dm::SolverChoice::kFem, options);
   }

@@ -35,9 +35,10 @@ struct SimulateOptions {
   /// automatic, from the body's thickness and voxel.elements_across / max_dofs (see
   /// VoxelMeshConfig), not from the particle spacing.
   VoxelMeshConfig voxel;
-  /// FEM: mesh this closed surface. Without it, the surface the particles describe
-  /// (surfaceOfParticles, when their surface particles carry normals and no volume, as
-  /// `demnerf sample` and the NeRF extraction make them), else voxels of the cells holding particles.
+  /// FEM: mesh this closed surface. Without it the CGAL mesher meshes the surface the particles
+  /// describe (surfaceOfParticles, when their surface particles carry normals and no volume, as
+  /// `demnerf sample` and the NeRF extraction make them); otherwise, and with the voxel mesher,
+  /// the FEM meshes voxels of the cells holding particles.
   std::optional<core::TriangleMesh> surface;
   /// How a surface is meshed: CGAL Mesh_3 tetrahedra that follow the surface (sharp edges kept),
   /// or voxels whose centres lie inside it (staircased faces; no closedness check).
