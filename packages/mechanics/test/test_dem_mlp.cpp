@@ -44,6 +44,18 @@ core::Scenario beam3d() {
   return s;
 }
 
+// The paper's DEM with a small network (10 x 2, one thread) and these optimiser budgets: the
+// Beam3D tests' solver, fast enough for a unit test.
+dm::DemConfig smallMlp(int lbfgs_iterations, int gauss_newton_steps) {
+  dm::DemConfig config = dm::paperDemConfig();
+  config.network.width = 10;
+  config.network.depth = 2;
+  config.threads = 1;
+  config.lbfgs.iterations = lbfgs_iterations;
+  config.gauss_newton.steps = gauss_newton_steps;
+  return config;
+}
+
 TEST(DemMlp, PaperPresetSolvesACantileverToItsCheckedEquilibrium) {
   // 16 x 4 x 4 cells (256 interior particles): coarse, so the test stays fast; the quadrature
   // error at this spacing is about 1 % of the tip (Beam3D's 1,512 grid particles: 0.3 %).
@@ -100,12 +112,7 @@ TEST(DemMlp, GaussNewtonReachesTheCheckedEquilibriumInFewSteps) {
   constexpr int kSteps = 40;
   double tips[2];
   for (bool gauss_newton : {true, false}) {
-    dm::DemConfig config = dm::paperDemConfig();
-    config.network.width = 10;
-    config.network.depth = 2;
-    config.threads = 1;
-    config.lbfgs.iterations = gauss_newton ? 0 : kSteps;
-    config.gauss_newton.steps = gauss_newton ? kSteps : 0;
+    const dm::DemConfig config = smallMlp(gauss_newton ? 0 : kSteps, gauss_newton ? kSteps : 0);
     dm::DemSolver dem(cloud, beam3d(), config);
     dm::DemReport report;
     if (gauss_newton) {
@@ -129,12 +136,7 @@ TEST(DemMlp, GaussNewtonReachesTheCheckedEquilibriumInFewSteps) {
 // checked equilibrium with it, here on a draw of 60 points.
 TEST(DemMlp, GaussNewtonOnSpreadDrawsReachesTheSameEquilibrium) {
   const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(4, 1, 1), Eigen::Vector3i(12, 3, 3));
-  dm::DemConfig config = dm::paperDemConfig();
-  config.network.width = 10;
-  config.network.depth = 2;
-  config.threads = 1;
-  config.lbfgs.iterations = 0;
-  config.gauss_newton.steps = 40;
+  dm::DemConfig config = smallMlp(0, 40);
   config.gauss_newton.sample = 60;
   config.gauss_newton.spread = true;
   dm::DemSolver dem(cloud, beam3d(), config);
@@ -238,12 +240,7 @@ TEST(DemMlp, GaussNewtonInTheCurrentTangentLowersTheSelfWeightEnergyFaster) {
 // scale (the guard's kept state on the self-weight block: 2.3x too large, inverted).
 TEST(DemMlp, AStoppedSolveKeepsTheFieldItStartedFrom) {
   const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(4, 1, 1), Eigen::Vector3i(12, 3, 3));
-  dm::DemConfig config = dm::paperDemConfig();
-  config.network.width = 10;
-  config.network.depth = 2;
-  config.threads = 1;
-  config.lbfgs.iterations = 0;
-  config.gauss_newton.steps = 10;
+  const dm::DemConfig config = smallMlp(0, 10);
   std::atomic<bool> stop{false};
   dm::SolveControl control;
   control.progress_interval = 0.0;
