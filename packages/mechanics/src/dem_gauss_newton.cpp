@@ -173,22 +173,43 @@ void assign(DisplacementMlp& net, const Tensor& theta) {
 // systematic sampling on the weights' running sum from one random offset, each pick weighing
 // total / m (a point heavier than that can be picked twice): every stretch of the cells' order,
 // so every part of the body, is in every draw, and a cut cell's light centroid point comes up in
-// proportion to its volume, not as often as a whole cell's Gauss point.
-std::pair<Tensor, Tensor> metricDraw(const Tensor& vol, long m, bool spread, std::vector<long>& order, std::mt19937& rng) {
-  const long nq = vol.size(0);
-  if (!spread) {
-    for (long i = 0; i < m; ++i) std::swap(order[i], order[i + std::uniform_int_distribution<long>(0, nq - 1 - i)(rng)]);
-    const Tensor idx = torch::tensor(std::vector<long>(order.begin(), order.begin() + m), torch::kLong);
-    const Tensor w = vol.index_select(0, idx);
-    return {idx, w * (vol.sum().item<double>() / w.sum())};
+// proportion to its volume, not as often as a whole cell's Gauss point. The weights do not change
+// between steps, so their running sum is formed once.
+class MetricDraw {
+ public:
+  MetricDraw(const Tensor& vol, long m, bool spread) : vol_(vol), m_(m), spread_(spread), order_(vol.size(0)) {
+    if (spread) {
+      running_ = vol.to(torch::kFloat64).cumsum(0);
+      total_ = running_[vol.size(0) - 1].item<double>();
+    } else {
+      total_ = vol.sum().item<double>();
+    }
+    std::iota(order_.begin(), order_.end(), 0L);
   }
-  const Tensor running = vol.to(torch::kFloat64).cumsum(0);
-  const double total = running[nq - 1].item<double>(), stride = total / static_cast<double>(m);
-  const double offset = std::uniform_real_distribution<double>(0.0, stride)(rng);
-  const Tensor at = torch::arange(m, torch::kFloat64) * stride + offset;
-  const Tensor idx = torch::searchsorted(running, at, false, true).clamp_max(nq - 1);
-  return {idx, torch::full({m}, stride, vol.options())};
-}
+
+  std::pair<Tensor, Tensor> next(std::mt19937& rng) {
+    const long nq = vol_.size(0);
+    if (!spread_) {
+      for (long i = 0; i < m_; ++i)
+        std::swap(order_[i], order_[i + std::uniform_int_distribution<long>(0, nq - 1 - i)(rng)]);
+      const Tensor idx = torch::tensor(std::vector<long>(order_.begin(), order_.begin() + m_), torch::kLong);
+      const Tensor w = vol_.index_select(0, idx);
+      return {idx, w * (total_ / w.sum())};
+    }
+    const double stride = total_ / static_cast<double>(m_);
+    const double offset = std::uniform_real_distribution<double>(0.0, stride)(rng);
+    const Tensor at = torch::arange(m_, torch::kFloat64) * stride + offset;
+    const Tensor idx = torch::searchsorted(running_, at, false, true).clamp_max(nq - 1);
+    return {idx, torch::full({m_}, stride, vol_.options())};
+  }
+
+ private:
+  Tensor vol_, running_;
+  long m_;
+  bool spread_;
+  double total_ = 0.0;
+  std::vector<long> order_;  ///< the uniform draw's running partial shuffle
+};
 
 }  // namespace
 
@@ -212,8 +233,7 @@ void DemSolver::Impl::gaussNewton(double scale, int& iterations) {
   metric.lambda = std::max(0.0, decoupled ? material->kappa() - 2.0 * metric.mu / 3.0 : scenario.material.lambda());
   metric.load_scale = scale;
   metric.current = config.gauss_newton.current_tangent && !decoupled;
-  std::vector<long> order(nq);
-  std::iota(order.begin(), order.end(), 0L);
+  MetricDraw metric_draw(draw.vol, m, config.gauss_newton.spread);
   double damping = config.gauss_newton.damping;
   // Every step is sampled: a step moves the field as much as many L-BFGS evaluations, and the
   // guard's energy (~1 fused evaluation) is small against a step. Its verdict supersedes the
@@ -233,7 +253,7 @@ void DemSolver::Impl::gaussNewton(double scale, int& iterations) {
     if (!std::isfinite(e0)) return;
     double accepted = energy;
     const Tensor grad = flatten(net, true), theta = flatten(net, false);
-    const auto [idx, w] = metricDraw(draw.vol, m, config.gauss_newton.spread, order, rng);
+    const auto [idx, w] = metric_draw.next(rng);
     const Tensor lift[4] = {draw.lift[0].index_select(0, idx), draw.lift[1].index_select(0, idx),
                             draw.lift[2].index_select(0, idx), draw.lift[3].index_select(0, idx)};
     const Tensor A = strainJacobianRows(net, draw.x.index_select(0, idx), lift, w, metric);
