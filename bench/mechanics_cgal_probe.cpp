@@ -3,8 +3,9 @@
 // seconds of meshing, of locating points in the mesh and (solve=1) of the TET10 solve.
 // With surface_of=P.ply instead of mesh=, the surface is the one the cloud's surface particles
 // describe (surfaceOfParticles every `step` m, default cell / 3, as the FEM builds it for a cloud
-// without --mesh), written to write=M.ply when asked, with its CPU seconds.
-//   mechanics_cgal_probe mesh=SURFACE.ply|surface_of=P.ply cell=0.0167 [step=S] [write=M.ply]
+// without --mesh; sharpen=0: its edges left chamfered), written to write=M.ply when asked, with its
+// CPU seconds; protect=1 protects its creases as the mesher does a given surface's.
+//   mechanics_cgal_probe mesh=SURFACE.ply|surface_of=P.ply cell=0.0167 [step=S] [sharpen=1] [protect=0] [write=M.ply]
 //       [facet_distance=M] [angle=60] [max_dangling=0.25] [particles=P.ply] [scenario=S.yaml solve=0|1]
 #include <algorithm>
 #include <cstdio>
@@ -40,10 +41,11 @@ int main(int argc, char** argv) {
   core::TriangleMesh surface;
   if (a.count("surface_of")) {
     const double t0 = cpuSeconds();
-    surface = dm::surfaceOfParticles(core::readParticles(a["surface_of"]), num("step", config.cell / 3.0));
+    surface = dm::surfaceOfParticles(core::readParticles(a["surface_of"]), num("step", config.cell / 3.0),
+                                     num("sharpen", 1) > 0);
     std::printf("surface of the particles: %zu faces, %.2f CPU s\n", surface.faces.size(), cpuSeconds() - t0);
     if (a.count("write")) core::writeMesh(a["write"], surface);
-    config.protect_creases = false;  // as the FEM meshes it
+    config.protect_creases = num("protect", 0) > 0;  // off: as the FEM meshes it
   } else {
     surface = core::readMesh(a.at("mesh"));
   }

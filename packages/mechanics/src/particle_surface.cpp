@@ -7,6 +7,7 @@
 #include "demnerf/core/error.hpp"
 #include "demnerf/geometry/iso_surface.hpp"
 #include "demnerf/mechanics/particle_inside_test.hpp"
+#include "demnerf/mechanics/surface_sharpening.hpp"
 
 namespace demnerf::mechanics {
 
@@ -20,7 +21,7 @@ bool particlesDescribeSurface(const core::ParticleCloud& cloud) {
   return any;
 }
 
-core::TriangleMesh surfaceOfParticles(const core::ParticleCloud& cloud, double step) {
+core::TriangleMesh surfaceOfParticles(const core::ParticleCloud& cloud, double step, bool sharpen) {
   if (!(step > 0.0) || !std::isfinite(step))
     throw core::Error("particle surface: the sampling step must be a positive length, got " + std::to_string(step));
   if (!particlesDescribeSurface(cloud))
@@ -56,6 +57,7 @@ core::TriangleMesh surfaceOfParticles(const core::ParticleCloud& cloud, double s
   if (surface.faces.empty())
     throw core::Error("particle surface: no point sampled every " + std::to_string(step) +
                       " m lies inside the particles' body; use a smaller step");
+  if (sharpen) sharpenEdges(surface, inside, step);
   return surface;
 }
 

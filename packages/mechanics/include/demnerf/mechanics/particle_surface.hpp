@@ -15,9 +15,10 @@ namespace demnerf::mechanics {
 bool particlesDescribeSurface(const core::ParticleCloud& cloud);
 
 /// The surface of `cloud` sampled every `step` metres (a face lies where the signed distance
-/// crosses zero: exact for planar faces, edges chamfered over about a step). The cloud's surface
+/// crosses zero: exact for planar faces; edges put back where the faces' planes meet by
+/// sharpenEdges(), or with `sharpen` false chamfered over about a step). The cloud's surface
 /// particles must lie on its surface (particlesDescribeSurface); throws core::Error otherwise, for
 /// a step that is not a positive length or gives more than 2e7 samples, or when no surface results.
-core::TriangleMesh surfaceOfParticles(const core::ParticleCloud& cloud, double step);
+core::TriangleMesh surfaceOfParticles(const core::ParticleCloud& cloud, double step, bool sharpen = true);
 
 }  // namespace demnerf::mechanics
