@@ -55,6 +55,15 @@ core::Scenario tbarTwist() {
   return s;
 }
 
+// `demnerf sample --method random --spacing S` on the exact T-bar.
+core::ParticleCloud randomTBarCloud(double spacing) {
+  demnerf::geometry::SamplerConfig sampler;
+  sampler.method = demnerf::geometry::SamplingMethod::kRandom;
+  sampler.spacing = spacing;
+  return demnerf::geometry::sampleParticles(demnerf::render::makeSceneObject(demnerf::render::SceneKind::kTBar).mesh,
+                                            sampler);
+}
+
 dm::SimulateOptions defaultOptions() {
   dm::SimulateOptions options;  // the product's default DEM
   options.control.time_limit = 120.0;
@@ -171,11 +180,7 @@ TEST(ProductClouds, ACloudTheSolverCannotHandleFailsAndNeverReturnsAPositiveEner
   // Sparse random particles and 40 times the twist: far more than the soft material takes. Either
   // an error, or an answer that is a minimum (energy <= 0 under dead loads); never a "success"
   // above 0 J.
-  const auto tbar = demnerf::render::makeSceneObject(demnerf::render::SceneKind::kTBar);
-  demnerf::geometry::SamplerConfig sampler;
-  sampler.method = demnerf::geometry::SamplingMethod::kRandom;
-  sampler.spacing = 0.02;
-  const core::ParticleCloud sparse = demnerf::geometry::sampleParticles(tbar.mesh, sampler);
+  const core::ParticleCloud sparse = randomTBarCloud(0.02);
   core::Scenario heavy = tbarTwist();
   for (auto& load : heavy.loads) load.force *= 40.0;  // far beyond what the material takes
   dm::SimulateOptions options = defaultOptions();
@@ -306,10 +311,7 @@ TEST(ProductClouds, TheSurfaceOfASampledTBarKeepsItsEdges) {
   // flange and the re-entrant ones under the crossbar alike, and keeps the surface closed. (Corners,
   // where three faces meet, keep a cut about a fifth of a step deep.)
   const auto tbar = demnerf::render::makeSceneObject(demnerf::render::SceneKind::kTBar);
-  demnerf::geometry::SamplerConfig sampler;
-  sampler.method = demnerf::geometry::SamplingMethod::kRandom;
-  sampler.spacing = 0.01;
-  const core::ParticleCloud cloud = demnerf::geometry::sampleParticles(tbar.mesh, sampler);
+  const core::ParticleCloud cloud = randomTBarCloud(0.01);
   const double step = 0.003;
   const core::TriangleMesh sharp = dm::surfaceOfParticles(cloud, step);
   const core::TriangleMesh chamfered = dm::surfaceOfParticles(cloud, step, false);
