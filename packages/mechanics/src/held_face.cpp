@@ -201,8 +201,17 @@ std::vector<int> heldMeshNodes(const core::Region& region, const TetMesh& mesh, 
         for (int id : nodes[t])
           if (id >= 0) held.insert(id);
   } else {
+    // Nodes the mesher put on the region's boundary (CgalMeshConfig::inner_surfaces) are held
+    // whichever side of it their rounding left them.
+    Eigen::Vector3d lo = mesh.nodes.empty() ? Eigen::Vector3d::Zero() : mesh.nodes.front(), hi = lo;
+    for (const Eigen::Vector3d& x : mesh.nodes) {
+      lo = lo.cwiseMin(x);
+      hi = hi.cwiseMax(x);
+    }
+    const double on_boundary = 1e-9 * (hi - lo).norm();
     for (std::size_t i = 0; i < mesh.nodes.size(); ++i)
-      if (region.contains(mesh.nodes[i])) held.insert(static_cast<int>(i));
+      if (region.contains(mesh.nodes[i]) || regionDistance(region, mesh.nodes[i]) <= on_boundary)
+        held.insert(static_cast<int>(i));
   }
   return {held.begin(), held.end()};
 }

@@ -117,3 +117,61 @@ TEST(CgalTetMesh, OpenOrBadSurfacesAreReported) {
 }
 
 }  // namespace
+
+namespace {
+
+// Elements with nodes on both sides of the plane x = cut (beyond a rounding tolerance) and their
+// centre farther than `rim` inside the box's sides |y|, |z| <= half.
+int elementsAcross(const dm::TetMesh& mesh, double cut, double half, double rim) {
+  int across = 0;
+  for (const auto& e : mesh.elements) {
+    double lowest = 1e9, highest = -1e9;
+    Vector3d centre = Vector3d::Zero();
+    for (int k = 0; k < 4; ++k) {
+      lowest = std::min(lowest, mesh.nodes[e[k]].x());
+      highest = std::max(highest, mesh.nodes[e[k]].x());
+      centre += 0.25 * mesh.nodes[e[k]];
+    }
+    const bool inside = std::max(std::abs(centre.y()), std::abs(centre.z())) < half - rim;
+    across += inside && lowest < cut - 1e-9 && highest > cut + 1e-9;
+  }
+  return across;
+}
+
+// The volume the clamp x <= cut makes rigid: elements whose every node it holds.
+double heldVolume(const dm::TetMesh& mesh, double cut) {
+  double volume = 0.0;
+  for (const auto& e : mesh.elements) {
+    bool held = true;
+    for (int k = 0; k < 4; ++k) held = held && mesh.nodes[e[k]].x() <= cut + 1e-9;
+    if (held) volume += elementVolume(mesh, e);
+  }
+  return volume;
+}
+
+}  // namespace
+
+TEST(CgalTetMesh, ACutPlaneSplitsTheMeshWhereItCrossesTheBody) {
+  // A halfspace clamp x <= 15 mm across a cuboid: with its plane as a cut plane no element inside
+  // straddles it, so the FEM holds the body up to the plane (nodes on it). Without it the nodes
+  // stop short of the plane (measured: 3.5 % softer in energy under an end load). Along the rim,
+  // where the plane meets the sides, elements may still straddle it (the rim is not protected).
+  const Vector3d lo(0.0, -0.05, -0.05), hi(0.125, 0.05, 0.05);
+  const double cut = 0.015, cell = 0.02;
+  dm::CgalMeshConfig config;
+  config.cell = cell;
+  config.order = 1;
+  const dm::TetMesh plain = dm::cgalMeshFromSurface(dm::boxSurface(lo, hi), config);
+  EXPECT_GT(elementsAcross(plain, cut, 0.05, cell), 0);
+  config.cut_planes = {{Vector3d(cut, 0, 0), Vector3d(1, 0, 0)}};
+  const dm::TetMesh split = dm::cgalMeshFromSurface(dm::boxSurface(lo, hi), config);
+  EXPECT_EQ(elementsAcross(split, cut, 0.05, cell), 0);
+  const double held = cut * 0.1 * 0.1;
+  // The volume made rigid, measured: 95 % of the clamp's with the cut (the rim's elements are
+  // not), 4 % without (20 mm elements across a 15 mm clamp).
+  EXPECT_GT(heldVolume(split, cut), 0.9 * held);
+  EXPECT_LT(heldVolume(plain, cut), 0.5 * held);
+  // A plane on a face, or beside the body, cuts nothing.
+  config.cut_planes = {{Vector3d(0, 0, 0), Vector3d(1, 0, 0)}, {Vector3d(0.2, 0, 0), Vector3d(1, 0, 0)}};
+  EXPECT_GT(dm::cgalMeshFromSurface(dm::boxSurface(lo, hi), config).elements.size(), 0u);
+}

@@ -3,6 +3,9 @@
 // the surface's sharp edges protected): the FEM baseline's mesh for scanned bodies, which unlike
 // the voxel mesh follows slanted and curved faces instead of staircasing them.
 
+#include <Eigen/Core>
+#include <vector>
+
 #include "demnerf/core/ply.hpp"
 #include "demnerf/mechanics/tet_mesh.hpp"
 
@@ -29,6 +32,14 @@ struct CgalMeshConfig {
   /// Seed of CGAL's random generator (initial surface points): the same seed gives nearly the same
   /// mesh; calls may differ by a few tetrahedra (CGAL orders some containers by address, see the .cpp).
   int seed = 1;
+  /// Planes the mesh must conform to where they cross the body: facets on the cross-section,
+  /// nodes on it and on its rim (protected like a sharp edge). A held volume's boundary
+  /// (simulate.cpp: a halfspace fixture's plane), so the FEM holds the body exactly up to it
+  /// rather than up to the last layer of nodes short of it.
+  struct Plane {
+    Eigen::Vector3d point, normal;
+  };
+  std::vector<Plane> cut_planes;
 };
 
 /// Whether `surface`'s creases (sharpCurves at feature_angle) are noise by max_dangling_fraction,
