@@ -91,15 +91,19 @@ namespace {
 // about their local quadric by more than rough_surface of the radius they are fitted over (two
 // cells, at least three surface spacings: a quadric's six coefficients need the neighbours), but
 // never finer than the particles resolve. Exactly sampled faces scatter 0; the NeRF T-bar's 1.5-2.4 %.
-// A cloud with fewer particles than the finer grid has body cells keeps its cell: it does not
-// describe the body finely enough for the finer cells to follow it, and on the NeRF T-bar's 1/6
-// clouds (3,400 particles, 3,900 cells at 7.9 mm) the finer grid's Newton took 7 iterations instead
-// of 3 from its nested start, 14-16 s instead of 5-9 s on the quiet machine, for +0.75 / +1.11 %.
-double roughSurfaceCell(const DemConfig& config, const core::ParticleCloud& cloud, double spacing, double volume) {
+// A cloud with fewer particles than body_cells keeps its cell: the NeRF cuboid's random 1/10
+// cloud (1,954 particles) is softer than its surface (its inside test rounds the loaded end), which
+// the 10.3 mm grid's stiffness cancelled and the 8.24 mm one exposed (rel. L2 1.64 -> 2.01 %). The
+// rule first compared the particles with the finer grid's body cells, for the cost: the NeRF
+// T-bar's 1/6 clouds (3,400 particles, 3,900 cells at 7.88 mm) took 3 factorisations from a nested
+// start the exact Hessian called indefinite; with the projected start (dem_grid_nested.cpp) they take
+// one, and the finer cell brings their energy within 1 % (docs/dem_feature_grid.md, "A positive
+// definite first fine step").
+double roughSurfaceCell(const DemConfig& config, const core::ParticleCloud& cloud, double spacing) {
   const DemGridConfig& g = config.grid;
   if (!(g.rough_surface > 0) || !(g.rough_cell_ratio < 1)) return g.cell;
   const double finer = g.cell * g.rough_cell_ratio;
-  if (static_cast<double>(cloud.size()) < volume / (finer * finer * finer)) return g.cell;
+  if (static_cast<double>(cloud.size()) < g.body_cells) return g.cell;
   const double radius = std::max(2 * g.cell, 3 * surfaceParticleSpacing(cloud));
   if (!(surfaceRoughness(cloud, radius) > g.rough_surface * radius)) return g.cell;
   const bool particles = g.quadrature == DemConfig::GridQuadrature::kParticles;
@@ -143,7 +147,12 @@ ResolvedDemConfig resolvedDemConfig(DemConfig config, const core::ParticleCloud&
       // exact surfaces' cells and fell about linearly with the cell (surface_roughness.hpp). The
       // bumps add area (NeRF T-bar +8 %), so the cap above would undo the refinement (8.6 mm): a
       // body it did not bind keeps clear of it.
-      config.grid.cell = roughSurfaceCell(config, cloud, spacing, volume);
+      // The nested level keeps the unrefined grid's coarse cell (19.7 mm on the NeRF T-bar, not
+      // 15.8): it only starts the fine Newton, which took 4 iterations from either, and at 15.8 mm
+      // its 15 iterations cost 5-11 % of the solve's CPU more (docs/dem_feature_grid.md).
+      const double refined = roughSurfaceCell(config, cloud, spacing);
+      config.grid.nested_ratio *= config.grid.cell / refined;
+      config.grid.cell = refined;
     }
   }
   checkGridAgainstParticles(config, spacing);

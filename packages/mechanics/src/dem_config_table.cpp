@@ -95,6 +95,8 @@ std::vector<Field> gridFields(DemGridConfig& c) {
       integer(s, "nested_levels", c.nested_levels, 0, 4,
               "coarser grids whose Newton answers start the grid's Newton (cells quadrature; 0: off)"),
       number(s, "nested_ratio", c.nested_ratio, 1, true, kInf, "cell ratio between nested grid levels (> 1)"),
+      flag(s, "projected_start", c.projected_start,
+           "nested solve: the grid's first Newton step with strongly indefinite point tangents made semidefinite"),
       number(s, "refine_band", c.refine_band, 0, false, kInf,
              "cells near fixtures/loads whose particles are split 2x2x2 (particles quadrature)"),
       number(s, "surface_share", c.surface_share, 0, false, 1,

@@ -79,6 +79,7 @@ void DemSolver::Impl::buildCoarseQuadratures() {
 GridNewtonConfig DemSolver::Impl::newtonSettings(GridNewtonCache& cache, int before, double scale) {
   GridNewtonConfig newton;
   newton.near_minimum = &cache == &grid_newton_cache && !coarse_levels.empty();
+  newton.projected_start = newton.near_minimum && config.grid.projected_start;
   newton.max_iterations = config.grid.newton_iterations;
   // A coarse level only starts the grid's Newton, whose answer is the grid's own whatever the start:
   // it gets the T-bar twist's 13-14 iterations with a margin, not the whole cap (the fox's ragged

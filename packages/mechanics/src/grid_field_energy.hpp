@@ -40,8 +40,11 @@ class GridFieldEnergy {
   double energy(const Eigen::VectorXd& c, double* strain = nullptr, double* min_J = nullptr) const;
 
   /// The gradient in the full coefficients and the Hessian's lower triangle in the unknowns
-  /// (setUnknownMap), at full coefficients c.
-  void derivatives(const Eigen::VectorXd& c, Eigen::VectorXd& gradient, Eigen::SparseMatrix<double>& hessian) const;
+  /// (setUnknownMap), at full coefficients c. With `projected`, a point's tangent dP/dF that is
+  /// strongly indefinite (an eigenvalue below -0.1 mu) enters the Hessian as its nearest positive
+  /// semidefinite matrix (negative eigenvalues set to zero); the others and the gradient are exact.
+  void derivatives(const Eigen::VectorXd& c, Eigen::VectorXd& gradient, Eigen::SparseMatrix<double>& hessian,
+                   bool projected = false) const;
 
   /// Per unknown node, the unknown nodes >= it that share a cell with it (the Hessian's lower
   /// pattern by node; setUnknownMap).
@@ -76,7 +79,8 @@ class GridFieldEnergy {
   void evaluateBasis();
   void buildWork();
   void buildPattern();
-  void assembleCell(const Eigen::VectorXd& c, long cell, CellStiffness& K, Eigen::VectorXd& gradient) const;
+  void assembleCell(const Eigen::VectorXd& c, long cell, bool projected, CellStiffness& K,
+                    Eigen::VectorXd& gradient) const;
   void scatter(const CellStiffness& K, const CellReduction& reduction, double* values) const;
   Eigen::Matrix3d deformationGradient(const Eigen::VectorXd& c, long q) const;
   static int rowOffset(int j, long rank, int i) { return rank == 0 ? i - j : static_cast<int>(3 - j + 3 * (rank - 1) + i); }

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <tuple>
 
 #include "demnerf/core/error.hpp"
 #include "extended_unknowns.hpp"
@@ -183,14 +184,14 @@ Eigen::VectorXd newtonStep(ShiftedCholesky& solver, Eigen::SparseMatrix<double>&
 // the residual is mostly converged already: the gradient alone (a fraction of an assembly) is
 // computed first, and the Hessian skipped when its norm is within `converged` (Newton stops there).
 void assembleAt(const GridFieldEnergy& energy, const Unknowns& unknowns, const Iterate& x, bool quadratic,
-                double converged, const std::vector<char>& weak, Eigen::VectorXd& gradient,
+                bool projected, double converged, const std::vector<char>& weak, Eigen::VectorXd& gradient,
                 Eigen::SparseMatrix<double>& hessian) {
   if (quadratic) {
     gradient = unknowns.projectGradient(energy.gradient(x.c));
     holdWeak(weak, gradient, nullptr);
     if (gradient.norm() <= converged) return;
   }
-  energy.derivatives(x.c, gradient, hessian);
+  energy.derivatives(x.c, gradient, hessian, projected);
   gradient = unknowns.projectGradient(gradient);
   holdWeak(weak, gradient, &hessian);
 }
@@ -225,6 +226,7 @@ GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const Hyper
   GridNewtonCache local;
   ShiftedCholesky& solver = linearSolver(config.cache ? *config.cache : local, energy, unknowns, grid, config.threads,
                                          config.near_minimum);
+  const int factorisations_before = solver.factorisations();
   const auto store = [&] {
     for (std::size_t l = 0; l < active.size(); ++l) C.row(active[l]) = x.c.segment<3>(3 * l).transpose();
   };
@@ -241,7 +243,8 @@ GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const Hyper
   bool quadratic = false;
   for (int it = 0;; ++it) {
     auto start = std::chrono::steady_clock::now();
-    assembleAt(energy, unknowns, x, quadratic, config.residual_tolerance * load, weak, gradient, hessian);
+    assembleAt(energy, unknowns, x, quadratic, config.projected_start && it == 0, config.residual_tolerance * load,
+               weak, gradient, hessian);
     out.assembly_seconds += secondsSince(start);
     if (it == 0) load = std::max(load, gradient.norm());
     out.residual = load > 0 ? gradient.norm() / load : 0.0;
@@ -282,10 +285,9 @@ GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const Hyper
     quadratic = full && out.residual <= kQuadraticPhase;
   }
   if (out.held > 0) out.held_residual = heldResidual(energy, unknowns, x, weak, load);
+  out.factorisations = solver.factorisations() - factorisations_before;
   store();
-  out.energy = x.energy;
-  out.strain_energy = x.strain;
-  out.min_J = x.min_J;
+  std::tie(out.energy, out.strain_energy, out.min_J) = std::tie(x.energy, x.strain, x.min_J);
   return out;
 }
 

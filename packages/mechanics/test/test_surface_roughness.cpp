@@ -83,8 +83,8 @@ TEST(SurfaceRoughness, OnlyARoughBodysGridIsRefined) {
   config.grid.surface_cells = 20;  // sqrt(A / 20) = 71 mm, above the body's rules
   EXPECT_NEAR(resolvedDemConfig(config, bumpyBox(cells, 1e-3, 8e-3)).config.grid.cell, std::sqrt(0.1 / 20), 1e-9);
   config.grid.surface_cells = DemGridConfig{}.surface_cells;
-  // Fewer particles (686) than the finer grid has body cells (2e-3 m^3 at 10.7 mm: ~1,650) keep the
-  // cell, though their surface reads rough and 0.6 of their 14 mm spacing would allow the finer one.
+  // Fewer particles (686) than body_cells (2000) keep the cell, though their surface reads rough
+  // and 0.6 of their 14 mm spacing would allow the finer one.
   const Eigen::Vector3i sparse(14, 7, 7);
   const core::ParticleCloud sparse_rough = bumpyBox(sparse, 1e-3, 30e-3);
   const double radius = std::max(2 * flat, 3 * surfaceParticleSpacing(sparse_rough));
@@ -96,6 +96,27 @@ TEST(SurfaceRoughness, OnlyARoughBodysGridIsRefined) {
   const Eigen::Vector3i coarse(8, 4, 4);
   EXPECT_NEAR(resolvedDemConfig(config, bumpyBox(coarse, 1e-3, 8e-3)).config.grid.cell,
               resolvedDemConfig(config, bumpyBox(coarse, 0.0, 8e-3)).config.grid.cell, 1e-12);
+}
+
+// As many particles as body_cells are enough for the finer cell, though fewer than the finer grid
+// has body cells: the NeRF T-bar's 1/6 clouds (3,400 particles, 3,900 cells at 7.88 mm), whose
+// energy the finer cell brings within 1 % now that their nested start factorises once.
+TEST(SurfaceRoughness, ACloudWithMoreParticlesThanBodyCellsIsRefined) {
+  DemConfig config;
+  config.grid.thickness_cells = 0;  // the body's rule sizes the box's cell: (2e-3 / 2000)^(1/3) = 10 mm
+  const Eigen::Vector3i cells(22, 11, 11);  // 2,662 particles, 9.1 mm apart; 3,906 cells of 8 mm
+  const core::ParticleCloud rough = bumpyBox(cells, 1e-3, 30e-3);
+  ASSERT_GE(static_cast<double>(rough.size()), config.grid.body_cells);
+  const double flat = resolvedDemConfig(config, bumpyBox(cells, 0.0, 30e-3)).config.grid.cell;
+  ASSERT_NEAR(flat, 0.01, 1e-6);
+  const double finer = config.grid.rough_cell_ratio * flat;
+  ASSERT_LT(static_cast<double>(rough.size()), 2e-3 / (finer * finer * finer));
+  const double radius = std::max(2 * flat, 3 * surfaceParticleSpacing(rough));
+  ASSERT_GT(surfaceRoughness(rough, radius), config.grid.rough_surface * radius);
+  const DemConfig resolved = resolvedDemConfig(config, rough).config;
+  EXPECT_NEAR(resolved.grid.cell, finer, 1e-9);
+  // Its nested level keeps the unrefined grid's coarse cell: it only starts the fine Newton.
+  EXPECT_NEAR(resolved.grid.cell * resolved.grid.nested_ratio, flat * config.grid.nested_ratio, 1e-9);
 }
 
 }  // namespace

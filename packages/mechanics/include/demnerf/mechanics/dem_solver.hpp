@@ -118,7 +118,7 @@ struct DemGridConfig {
   /// With body_cells: a rough surface gets cells rough_cell_ratio times finer. Rough: its particles
   /// scatter about their local quadric (fitted over two cells) by more than this share of that
   /// radius; a NeRF extraction's bumps, not an exact mesh's faces or smooth curves. A cloud with
-  /// fewer particles than the finer grid has body cells keeps its cell (0.005; 0: off)
+  /// fewer particles than body_cells keeps its cell (0.005; 0: off)
   double rough_surface = 0.005;
   double rough_cell_ratio = 0.8;  ///< cell factor on a rough surface, in (0, 1] (0.8)
   int degree = 2;                 ///< 1 trilinear, 2 C1 quadratic, 3 C2 cubic (2)
@@ -132,6 +132,9 @@ struct DemGridConfig {
   /// squares, start its own Newton; the answer is the grid's (1; 0: off)
   int nested_levels = 1;
   double nested_ratio = 2.0;      ///< cell ratio between nested levels, > 1 (2)
+  /// Nested solve: the grid's first Newton step with the points' strongly indefinite tangents
+  /// projected positive semidefinite, which a start moved from the coarse level can have (true)
+  bool projected_start = true;
   double refine_band = 1.0;       ///< particles within this many cells of a region split 2 x 2 x 2, kParticles (1)
   double surface_share = 0.04;    ///< share of energyWeights() in the particle weights, kParticles (0.04)
 };
