@@ -201,7 +201,7 @@ std::vector<int> heldMeshNodes(const core::Region& region, const TetMesh& mesh, 
         for (int id : nodes[t])
           if (id >= 0) held.insert(id);
   } else {
-    // Nodes the mesher put on the region's boundary (CgalMeshConfig::inner_surfaces) are held
+    // Nodes the mesher put on the region's boundary (CgalMeshConfig::cut_planes) are held
     // whichever side of it their rounding left them.
     Eigen::Vector3d lo = mesh.nodes.empty() ? Eigen::Vector3d::Zero() : mesh.nodes.front(), hi = lo;
     for (const Eigen::Vector3d& x : mesh.nodes) {

@@ -32,10 +32,11 @@ struct CgalMeshConfig {
   /// Seed of CGAL's random generator (initial surface points): the same seed gives nearly the same
   /// mesh; calls may differ by a few tetrahedra (CGAL orders some containers by address, see the .cpp).
   int seed = 1;
-  /// Planes the mesh must conform to where they cross the body: facets on the cross-section,
-  /// nodes on it and on its rim (protected like a sharp edge). A held volume's boundary
-  /// (simulate.cpp: a halfspace fixture's plane), so the FEM holds the body exactly up to it
-  /// rather than up to the last layer of nodes short of it.
+  /// Planes the mesh conforms to where they cross the body (more than a tenth of a cell from its
+  /// vertices on both sides): facets and nodes on the cross-section, except along its rim, where
+  /// elements may straddle the plane (the rim is not protected). A held volume's boundary
+  /// (simulate.cpp: a halfspace fixture's plane), so the FEM holds the body up to it rather than
+  /// up to the last layer of nodes short of it.
   struct Plane {
     Eigen::Vector3d point, normal;
   };
