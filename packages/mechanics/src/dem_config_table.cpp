@@ -121,6 +121,8 @@ std::vector<Field> demFields(DemConfig& c) {
       integer(s, "max_halvings", c.max_halvings, 0, kMany, "load-step halvings after a failed step"),
       integer(s, "threads", c.threads, 0, kMany,
               "threads (0: torch 1 below 50k particles, else all cores; the MLP's fused kernel 1 per 1000 points)"),
+      flag(s, "surface_loads", c.surface_loads,
+           "the MLP alone's loads spread over the surface, as the default DEM's (false: on the surface particles)"),
       flag(s, "tune_allocator", c.tune_allocator, "raise glibc's mmap threshold (reuses Adam's buffers)"),
       flag(s, "verbose", c.verbose, "print training details"),
   };

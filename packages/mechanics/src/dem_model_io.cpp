@@ -55,7 +55,8 @@ nlohmann::json toJson(const DemConfig& c) {
           {"parametric_samples", c.parametric.samples},
           {"seed", c.network.seed},
           {"double_precision", c.network.double_precision},
-          {"thickness_inputs", c.network.thickness_inputs}};
+          {"thickness_inputs", c.network.thickness_inputs},
+          {"surface_loads", c.surface_loads}};
 }
 
 // Threads, verbosity and the allocator switch belong to the machine that loads the model.
@@ -107,6 +108,8 @@ DemConfig configFromJson(const nlohmann::json& j) {
   c.network.double_precision = j.at("double_precision");
   // The network's input normalisation (files written before it existed: per axis).
   c.network.thickness_inputs = j.value("thickness_inputs", false);
+  // The MLP's loads (files written before they were spread over the surface: on the particles).
+  c.surface_loads = j.value("surface_loads", false);
   return c;
 }
 

@@ -186,6 +186,12 @@ struct DemSolver::Impl {
   // Adam's pace in this solve (the time-limit message's estimate of what the schedule needs).
   double adam_seconds = 0.0;
   int adam_steps = 0;
+  // The check basis's cell: `grid` the 600-cell grid's for this body, `cell` what the check uses
+  // (no finer than two particle spacings while the loads sit on the surface particles).
+  struct CheckCell {
+    double grid = 0.0, cell = 0.0, spacing = 0.0;
+  };
+  CheckCell checkCell() const;
   void buildCheckBasis();
   MlpCheck mlpEquilibrium(double scale);
   void checkMlpAnswer(const MlpCheck& check) const;

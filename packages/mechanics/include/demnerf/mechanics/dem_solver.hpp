@@ -169,6 +169,11 @@ struct DemConfig {
   /// Torch threads (0: 1 below 50k particles, all cores above), the grid Newton's assembly
   /// threads (0: all cores) and the MLP's fused loss kernel's (0: one per 1000 points, up to all cores).
   int threads = 0;
+  /// The MLP alone's loads (no feature grid): spread evenly over the surface the particles describe,
+  /// as the default DEM's (surface_loads.hpp), on a lattice of an eighth of the equilibrium check's
+  /// cell (true); false: the paper's forces on the surface particles, which a check basis finer than
+  /// two particle spacings resolves as point loads, so the check then stays that coarse.
+  bool surface_loads = true;
   bool tune_allocator = true;   ///< raise glibc's mmap threshold, process-wide, to reuse Adam's buffers (true); applied by the entry point (dem_node, `demnerf simulate`): keepLargeAllocationsInHeap()
   bool verbose = false;         ///< print training details (false)
 };
