@@ -140,23 +140,26 @@ TEST(GridFieldEnergy, DerivativesBeforeTheUnknownMapAreRefused) {
   EXPECT_THROW(energy.derivatives(Eigen::VectorXd::Zero(energy.unknowns()), g, h), std::exception);
 }
 
-
 // The nested solve's fine grid starts from a field moved from a coarser grid, compressed at a few
 // cut-cell points (det F ~0.76 on the NeRF T-bar), where the Neo-Hookean tangent is strongly
 // indefinite: its first Hessian is then indefinite and costs a failed factorisation and a shift
 // (GridNewtonConfig::projected_start). With `projected`, every point's tangent is made positive
 // semidefinite, so the Hessian is too; the gradient stays the energy's.
-TEST(GridFieldEnergy, ProjectedHessianIsPositiveSemidefiniteWhereTheExactOneIsNot) {
+// A slab whose lift u_0 squeezes x by 35 % and shears x-y: det F = 0.65 at every point.
+SlabProblem compressedSlab() {
   SlabProblem slab;
-  // u_0 squeezes x by 35 % and shears x-y: det F = 0.65 at every point.
+  Eigen::Matrix3d grad = Eigen::Matrix3d::Zero();
+  grad(0, 0) = -0.35;
+  grad(0, 1) = 0.2;
   for (std::size_t p = 0; p < slab.problem.points.size(); ++p) {
-    const Eigen::Vector3d& x = slab.problem.points[p];
-    Eigen::Matrix3d grad = Eigen::Matrix3d::Zero();
-    grad(0, 0) = -0.35;
-    grad(0, 1) = 0.2;
-    slab.problem.offset[p] = grad * x;
+    slab.problem.offset[p] = grad * slab.problem.points[p];
     slab.problem.grad_offset[p] = grad;
   }
+  return slab;
+}
+
+TEST(GridFieldEnergy, ProjectedHessianIsPositiveSemidefiniteWhereTheExactOneIsNot) {
+  SlabProblem slab = compressedSlab();
   const NeoHookean material(1e4, 2e4);
   GridFieldEnergy energy(slab.problem, material, slab.grid, 2);
   energy.setUnknownMap(extendOuterNodes(slab.grid, energy.activeNodes(), slab.cell_fill, 0.75).map);
@@ -192,16 +195,10 @@ TEST(GridFieldEnergy, ProjectedHessianIsPositiveSemidefiniteWhereTheExactOneIsNo
 // 7 here) and no more factorisations: the exact first Hessian's unshifted factorisation fails, and
 // Lanczos' shift damps the first steps.
 TEST(GridFieldEnergy, ProjectedStartReachesTheSameMinimumInFewerIterations) {
-  SlabProblem slab;
+  SlabProblem slab = compressedSlab();
   for (std::size_t p = 0; p < slab.problem.points.size(); ++p) {
-    const Eigen::Vector3d& x = slab.problem.points[p];
-    Eigen::Matrix3d grad = Eigen::Matrix3d::Zero();
-    grad(0, 0) = -0.35;
-    grad(0, 1) = 0.2;
-    slab.problem.offset[p] = grad * x;
-    slab.problem.grad_offset[p] = grad;
     // Clamped at x = 0 in every component, so the energy has a minimum under the body force.
-    slab.problem.D[p] = Eigen::Vector3d::Constant(x(0));
+    slab.problem.D[p] = Eigen::Vector3d::Constant(slab.problem.points[p](0));
     slab.problem.grad_D[p] = Eigen::Matrix3d::Zero();
     slab.problem.grad_D[p].col(0).setOnes();
   }
