@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cmath>
 
-
 namespace demnerf::mechanics {
 
 bool planeCutsBody(const core::TriangleMesh& surface, const Eigen::Vector3d& point, const Eigen::Vector3d& normal,

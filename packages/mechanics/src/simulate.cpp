@@ -40,9 +40,9 @@ namespace {
 /// holes), so a grid-sampled body keeps its faces; over a cloud that is no lattice, at least two,
 /// which the particles fill to half on any sampler. One-spacing voxels of a Poisson cloud can meet
 /// only at an edge, a hinge on which Newton stalled.
-VoxelMeshConfig femVoxels(const core::ParticleCloud& cloud, const core::TriangleMesh* surface, VoxelMeshConfig voxel) {
+VoxelMeshConfig femVoxels(const core::ParticleCloud& cloud, const core::TriangleMesh* surface, const BodyMeasures& body,
+                          VoxelMeshConfig voxel) {
   if (voxel.cell != 0.0) return voxel;
-  const BodyMeasures body = surface ? measureSurface(*surface) : measureParticles(cloud);
   voxel.cell = automaticCell(body, MeshSizeRule{voxel.elements_across, voxel.max_dofs, voxel.order});
   if (!surface) {
     const double spacing = medianParticleEdge(cloud);
@@ -53,10 +53,8 @@ VoxelMeshConfig femVoxels(const core::ParticleCloud& cloud, const core::Triangle
 }
 
 /// Says what is being built before the (uninterruptible) meshing and first factorisation.
-void reportMeshing(const core::ParticleCloud& cloud, const core::TriangleMesh* surface, bool of_particles,
-                   const VoxelMeshConfig& voxel, bool cgal, SolveClock& clock) {
+void reportMeshing(double volume, bool of_particles, const VoxelMeshConfig& voxel, bool cgal, SolveClock& clock) {
   SolveProgress meshing;
-  const double volume = surface ? measureSurface(*surface).volume : measureParticles(cloud).volume;
   std::ostringstream phase;
   phase << (cgal ? "mesh (CGAL, " : "mesh (voxels, ") << (voxel.order == 2 ? "TET10" : "TET4") << ", cell "
         << voxel.cell * 1e3 << " mm, ~" << std::lround(expectedDofs(volume, voxel.cell, voxel.order)) << " dofs"
@@ -140,8 +138,10 @@ void solveFem(const core::ParticleCloud& cloud, const core::Scenario& scenario, 
       options.surface || !cgal_mesher ? std::nullopt : particleSurface(cloud, options.voxel);
   const core::TriangleMesh* surface = options.surface ? &*options.surface : of_particles ? &*of_particles : nullptr;
   const bool cgal = surface && cgal_mesher;
-  const VoxelMeshConfig voxel = femVoxels(cloud, surface, options.voxel);
-  reportMeshing(cloud, surface, of_particles.has_value(), voxel, cgal, clock);
+  // Measured once: a reconstructed surface has 10^5 triangles.
+  const BodyMeasures body = surface ? measureSurface(*surface) : measureParticles(cloud);
+  const VoxelMeshConfig voxel = femVoxels(cloud, surface, body, options.voxel);
+  reportMeshing(body.volume, of_particles.has_value(), voxel, cgal, clock);
   TetMesh mesh = femMesh(cloud, scenario, surface, of_particles.has_value(), voxel, cgal);
   out.mesh_nodes = static_cast<int>(mesh.nodes.size());
   out.mesh_elements = static_cast<int>(mesh.elements.size());

@@ -17,12 +17,13 @@ struct TangentPlane {
   double distance(const Eigen::Vector3d& x) const { return normal.dot(x) - offset; }
 };
 
-/// The tangent plane that decides the signed distance at x; a zero normal beyond the surface
-/// particles' reach.
-TangentPlane planeAt(const Eigen::Vector3d& x, const ParticleInsideTest& inside) {
+/// The tangent plane that decides the signed distance at x (returned in `distance` when asked); a
+/// zero normal beyond the surface particles' reach.
+TangentPlane planeAt(const Eigen::Vector3d& x, const ParticleInsideTest& inside, double* distance = nullptr) {
   TangentPlane plane;
   const double d = inside.signedDistance(x, &plane.normal);
   plane.offset = plane.normal.dot(x - d * plane.normal);
+  if (distance) *distance = d;
   return plane;
 }
 
@@ -72,15 +73,17 @@ Eigen::Vector3d moveOntoPlanes(const Eigen::Vector3d& v, const std::vector<Tange
   return move;
 }
 
-void snapOffSurfaceVertices(core::TriangleMesh& surface, const ParticleInsideTest& inside, double step) {
-  for (Eigen::Vector3d& v : surface.vertices) {
-    // A crossing between samples that saw one plane lies on that face.
-    if (std::abs(inside.signedDistance(v)) <= 1e-3 * step) continue;
-    const std::vector<TangentPlane> planes = planesAround(v, inside, step);
-    if (!spansAnEdge(planes)) continue;
-    const Eigen::Vector3d move = moveOntoPlanes(v, planes);
-    if (move.norm() <= step) v += move;
-  }
+/// Moves v, whose signed distance is `distance`, onto the planes around it when it lies off the
+/// surface between two faces; whether it moved.
+bool snapOntoEdge(Eigen::Vector3d& v, double distance, const ParticleInsideTest& inside, double step) {
+  // A crossing between samples that saw one plane lies on that face.
+  if (std::abs(distance) <= 1e-3 * step) return false;
+  const std::vector<TangentPlane> planes = planesAround(v, inside, step);
+  if (!spansAnEdge(planes)) return false;
+  const Eigen::Vector3d move = moveOntoPlanes(v, planes);
+  if (!(move.norm() <= step)) return false;
+  v += move;
+  return true;
 }
 
 /// The point of the line where planes a and b meet nearest to x.
@@ -161,10 +164,14 @@ void retriangulate(core::TriangleMesh& surface, const std::map<std::pair<int, in
 }  // namespace
 
 void sharpenEdges(core::TriangleMesh& surface, const ParticleInsideTest& inside, double step) {
-  snapOffSurfaceVertices(surface, inside, step);
+  // Each vertex's plane, taken again only where the vertex moved.
   std::vector<TangentPlane> planes;
   planes.reserve(surface.vertices.size());
-  for (const Eigen::Vector3d& v : surface.vertices) planes.push_back(planeAt(v, inside));
+  for (Eigen::Vector3d& v : surface.vertices) {
+    double distance = 0.0;
+    const TangentPlane plane = planeAt(v, inside, &distance);
+    planes.push_back(snapOntoEdge(v, distance, inside, step) ? planeAt(v, inside) : plane);
+  }
   retriangulate(surface, splitEdgesAcrossFaces(surface, planes, step));
 }
 
