@@ -6,7 +6,6 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <tuple>
 
 #include "demnerf/core/error.hpp"
 #include "extended_unknowns.hpp"
@@ -207,6 +206,13 @@ double heldResidual(const GridFieldEnergy& energy, const Unknowns& unknowns, con
   return load > 0 ? std::sqrt(sum) / load : 0.0;
 }
 
+// The outcome's energies and smallest det F at the returned iterate.
+void setEnergies(const Iterate& x, GridNewtonOutcome& out) {
+  out.energy = x.energy;
+  out.strain_energy = x.strain;
+  out.min_J = x.min_J;
+}
+
 }  // namespace
 
 GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const HyperelasticMaterial& material,
@@ -287,7 +293,7 @@ GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const Hyper
   if (out.held > 0) out.held_residual = heldResidual(energy, unknowns, x, weak, load);
   out.factorisations = solver.factorisations() - factorisations_before;
   store();
-  std::tie(out.energy, out.strain_energy, out.min_J) = std::tie(x.energy, x.strain, x.min_J);
+  setEnergies(x, out);
   return out;
 }
 
