@@ -11,6 +11,7 @@
 #include "demnerf/mechanics/boundary_conditions.hpp"
 #include "demnerf/mechanics/cgal_tet_mesh.hpp"
 #include "demnerf/mechanics/dem_model_io.hpp"
+#include "demnerf/mechanics/held_volume_planes.hpp"
 #include "demnerf/mechanics/mesh_size.hpp"
 #include "demnerf/mechanics/particle_surface.hpp"
 
@@ -64,19 +65,6 @@ void reportMeshing(double volume, bool of_particles, const VoxelMeshConfig& voxe
   clock.report(meshing, true);
 }
 
-/// The planes of the halfspace fixtures (CgalMeshConfig::cut_planes): the mesh then has nodes on
-/// each and the FEM holds the body exactly up to it. Without them CGAL's nodes stop short of the
-/// plane, the clamp is shorter by up to a cell and the body softer (a cuboid clamped over
-/// x <= 15 mm: 3.5 % in energy; docs/dem_feature_grid.md, "Held volumes cut cells too"). Planes
-/// beside the body cut nothing.
-std::vector<CgalMeshConfig::Plane> heldPlanes(const core::Scenario& scenario) {
-  std::vector<CgalMeshConfig::Plane> planes;
-  for (const core::Fixture& fixture : scenario.fixtures)
-    if (fixture.region.type == core::Region::Type::kHalfspace)
-      planes.push_back({fixture.region.center, fixture.region.normal});
-  return planes;
-}
-
 /// The FEM's mesh of the body: CGAL from the surface, or voxels of the surface or the particles;
 /// specks of a reconstructed body that touch no fixture are dropped (they would make the
 /// stiffness singular).
@@ -88,7 +76,7 @@ TetMesh femMesh(const core::ParticleCloud& cloud, const core::Scenario& scenario
     config.cell = voxel.cell;
     config.order = voxel.order;
     config.protect_creases = !of_particles;
-    config.cut_planes = heldPlanes(scenario);
+    config.cut_planes = heldVolumePlanes(scenario, *surface);
     mesh = cgalMeshFromSurface(*surface, config);
   } else if (surface) {
     mesh = voxelMeshFromSurface(*surface, voxel);

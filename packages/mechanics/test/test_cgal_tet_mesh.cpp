@@ -7,6 +7,7 @@
 #include "demnerf/mechanics/box_particles.hpp"
 #include "demnerf/mechanics/cgal_tet_mesh.hpp"
 #include "demnerf/mechanics/fem_solver.hpp"
+#include "demnerf/mechanics/held_volume_planes.hpp"
 #include "demnerf/mechanics/reference_problems.hpp"
 
 namespace dm = demnerf::mechanics;
@@ -174,4 +175,57 @@ TEST(CgalTetMesh, ACutPlaneSplitsTheMeshWhereItCrossesTheBody) {
   // A plane on a face, or beside the body, cuts nothing.
   config.cut_planes = {{Vector3d(0, 0, 0), Vector3d(1, 0, 0)}, {Vector3d(0.2, 0, 0), Vector3d(1, 0, 0)}};
   EXPECT_GT(dm::cgalMeshFromSurface(dm::boxSurface(lo, hi), config).elements.size(), 0u);
+}
+
+namespace {
+
+core::Fixture clampOver(const Vector3d& center, const Vector3d& size) {
+  core::Fixture fixture;
+  fixture.name = "clamp";
+  fixture.region.type = core::Region::Type::kBox;
+  fixture.region.center = center;
+  fixture.region.size = size;
+  return fixture;
+}
+
+std::vector<dm::CgalMeshConfig::Plane> planesOf(const core::Fixture& fixture, const core::TriangleMesh& surface) {
+  core::Scenario scenario;
+  scenario.fixtures = {fixture};
+  return dm::heldVolumePlanes(scenario, surface);
+}
+
+}  // namespace
+
+TEST(HeldVolumePlanes, ABoxHoldingAVolumeAcrossTheBodyCutsItsFacesThatSpanTheBody) {
+  // A 125 x 100 x 100 mm bar along x. Which faces of a box fixture the FEM's mesh must conform to.
+  const core::TriangleMesh bar = dm::boxSurface(Vector3d(0.0, -0.05, -0.05), Vector3d(0.125, 0.05, 0.05));
+  // A slab x in [50, 70] mm over the whole section: its two x faces; its y and z faces miss the bar.
+  const auto slab = planesOf(clampOver(Vector3d(0.06, 0, 0), Vector3d(0.02, 0.2, 0.2)), bar);
+  ASSERT_EQ(slab.size(), 2u);
+  EXPECT_NEAR(slab[0].point.x(), 0.05, 1e-12);
+  EXPECT_NEAR(slab[0].normal.x(), -1.0, 1e-12);
+  EXPECT_NEAR(slab[1].point.x(), 0.07, 1e-12);
+  EXPECT_NEAR(slab[1].normal.x(), 1.0, 1e-12);
+  // A thin box over the end grips the end face (held_face.hpp): it holds that face, no volume.
+  EXPECT_TRUE(planesOf(clampOver(Vector3d(0, 0, 0), Vector3d(0.01, 0.12, 0.12)), bar).empty());
+  // Over x <= 30 mm the sides carry more area than the end: a held volume, bounded by x = 30 mm.
+  const auto end = planesOf(clampOver(Vector3d(0, 0, 0), Vector3d(0.06, 0.12, 0.12)), bar);
+  ASSERT_EQ(end.size(), 1u);
+  EXPECT_NEAR(end[0].point.x(), 0.03, 1e-12);
+  // A box over half the section: each face that crosses the bar ends inside it, so none is cut.
+  EXPECT_TRUE(planesOf(clampOver(Vector3d(0.06, 0, 0), Vector3d(0.02, 0.05, 0.2)), bar).empty());
+}
+
+TEST(HeldVolumePlanes, TheMeshHoldsASlabClampUpToBothItsFaces) {
+  // The slab above, cut into a 20 mm mesh: no element inside the bar straddles either face.
+  const core::TriangleMesh bar = dm::boxSurface(Vector3d(0.0, -0.05, -0.05), Vector3d(0.125, 0.05, 0.05));
+  dm::CgalMeshConfig config;
+  config.cell = 0.02;
+  config.order = 1;
+  const dm::TetMesh plain = dm::cgalMeshFromSurface(bar, config);
+  EXPECT_GT(elementsAcross(plain, 0.05, 0.05, 0.02) + elementsAcross(plain, 0.07, 0.05, 0.02), 0);
+  config.cut_planes = planesOf(clampOver(Vector3d(0.06, 0, 0), Vector3d(0.02, 0.2, 0.2)), bar);
+  const dm::TetMesh split = dm::cgalMeshFromSurface(bar, config);
+  EXPECT_EQ(elementsAcross(split, 0.05, 0.05, 0.02), 0);
+  EXPECT_EQ(elementsAcross(split, 0.07, 0.05, 0.02), 0);
 }

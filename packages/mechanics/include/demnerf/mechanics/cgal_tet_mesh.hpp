@@ -35,8 +35,9 @@ struct CgalMeshConfig {
   /// Planes the mesh conforms to where they cross the body (more than a tenth of a cell from its
   /// vertices on both sides): facets and nodes on the cross-section, except along its rim, where
   /// elements may straddle the plane (the rim is not protected). A held volume's boundary
-  /// (simulate.cpp: a halfspace fixture's plane), so the FEM holds the body up to it rather than
-  /// up to the last layer of nodes short of it.
+  /// (held_volume_planes.hpp: a halfspace fixture's plane, the faces of a box that holds a volume
+  /// across the body), so the FEM holds the body up to it rather than up to the last layer of
+  /// nodes short of it.
   struct Plane {
     Eigen::Vector3d point, normal;
   };
