@@ -51,7 +51,9 @@ bool gripsAFace(const core::TriangleMesh& surface, const core::Region& box) {
     const Eigen::Vector3d& b = surface.vertices[face[1]];
     const Eigen::Vector3d& c = surface.vertices[face[2]];
     const Eigen::Vector3d cross = (b - a).cross(c - a);
-    if (!(cross.norm() > 0.0)) continue;
+    const Eigen::Vector3d lo = a.cwiseMin(b).cwiseMin(c) - box.center, hi = a.cwiseMax(b).cwiseMax(c) - box.center;
+    const bool apart = ((lo.array() > 0.5 * box.size.array()) || (hi.array() < -0.5 * box.size.array())).any();
+    if (apart || !(cross.norm() > 0.0)) continue;
     const double longest = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
     const double pieces = sample > 0.0 ? std::ceil(longest / sample) : 1.0;
     const int n = static_cast<int>(std::clamp(pieces, 1.0, 1.0 * kMaxSubdivision));
