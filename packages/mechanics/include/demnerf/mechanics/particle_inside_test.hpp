@@ -89,7 +89,8 @@ class ParticleInsideTest {
   double deepSide(const Eigen::Vector3d& x, const Eigen::Vector3i& c) const;
   static constexpr int kNearRings = 2;  ///< ceil(kSurfaceRadius): buckets searched for surface particles
   /// A rough face's distance blends the planes of same-face particles (normals within 30 degrees:
-  /// kSameFace, as surfaceRoughness() selects them) within this many spacings (at most kNearRings).
+  /// kSameFace, as surfaceRoughness() selects them) within this many spacings: at least
+  /// kSurfaceRadius, so the nearest particle always weighs in, and at most kNearRings (the buckets).
   static constexpr double kBlendRadius = 2.0;
   static constexpr double kSameFace = 0.866;
   /// Flags the surface particles whose same-face neighbours do not all lie on their plane.
