@@ -218,6 +218,9 @@ void probeCloud(const core::ParticleCloud& cloud, const core::Scenario& scenario
   }
   std::printf("    %zu surface particles; particle volumes %.6g m^3 (%+.3f %% of the surface's); areas %.5g m^2\n",
               on_surface, volume, 100 * (volume / surface.volume - 1), area);
+  std::printf("    %zu rough surface particles (their faces' planes are blended)\n",
+              dm::ParticleInsideTest(cloud).roughParticles());
+  std::fflush(stdout);
   const dm::BsplineGrid grid = demGrid(cloud, config);
   dm::CellQuadratureConfig cq;
   cq.boundary_levels = config.grid.boundary_levels;

@@ -1,7 +1,8 @@
 #pragma once
 // Is a point inside the body a particle cloud describes? Within two particle spacings of surface
 // particles (area > 0, outward unit normal): when it lies behind the nearest one's tangent plane
-// (with its neighbours' across an edge), and beyond 1.5 spacings of them only with a volume-carrying
+// (on a rough face, the same-face neighbours' planes blended; with the planes of other faces' particles
+// across an edge), and beyond 1.5 spacings of them only with a volume-carrying
 // particle within 1.5 spacings; farther from them, when the nearest particle carries volume and
 // lies within 1.5 spacings. The cloud alone is enough, whichever sampler
 // (random, Poisson disk, grid, a NeRF extraction) made it, so quadratures built on this test do not
@@ -51,6 +52,9 @@ class ParticleInsideTest {
   /// particles carry a whole cell of volume describe a body half a cell larger than the particles'
   /// hull; cellQuadrature() sets the offset that makes the enclosed volume the particles' volume.
   void setSurfaceOffset(double offset) { offset_ = offset; }
+  /// Surface particles whose face is not flat around them (same-face neighbours off their plane):
+  /// their distances blend the face's planes. None on an exact (flat-faced) body.
+  std::size_t roughParticles() const;
   /// Surface particles of another face (normals more than 60 degrees apart) join the nearest one's
   /// plane when they are at most this many spacings farther from the point (default 1). Two
   /// spacings bridge a random cloud's gaps at its edges (surfaceLoads() uses them); on a NeRF
@@ -84,10 +88,20 @@ class ParticleInsideTest {
   /// Beyond the surface particles' reach: inside or outside from the nearest particle (bucket c).
   double deepSide(const Eigen::Vector3d& x, const Eigen::Vector3i& c) const;
   static constexpr int kNearRings = 2;  ///< ceil(kSurfaceRadius): buckets searched for surface particles
+  /// A rough face's distance blends the planes of same-face particles (normals within 30 degrees:
+  /// kSameFace, as surfaceRoughness() selects them) within this many spacings: at least
+  /// kSurfaceRadius, so the nearest particle always weighs in, and at most kNearRings (the buckets).
+  static constexpr double kBlendRadius = 2.0;
+  static constexpr double kSameFace = 0.866;
+  /// Flags the surface particles whose same-face neighbours do not all lie on their plane.
+  void markRough();
+  template <typename Nearby>
+  double blendedDistance(const Eigen::Vector3d& x, int nearest, Nearby&& nearby) const;
 
   std::vector<Eigen::Vector3d> positions_, normals_;
   std::vector<char> surface_;
   std::vector<char> carries_;  ///< the particle carries volume
+  std::vector<char> rough_;    ///< a surface particle whose face is not flat around it (markRough())
   double surface_area_ = 0.0, offset_ = 0.0, edge_reach_ = 1.0;
   double spacing_ = 0.0, volume_ = 0.0, bucket_ = 1.0, reach_ = 0.0;
   Eigen::Vector3d lower_;
