@@ -181,6 +181,27 @@ TEST(DemMlp, GaussNewtonStopsOnceConvergedAndNotBefore) {
   EXPECT_GT(std::abs(tip_loose - tip_all), 2 * std::abs(tip_rule - tip_all)) << "a loose rule is not measurably short";
 }
 
+// The solve's time limit is the steps' other cap: they stop before a step that would cross it, and
+// the answer is kept and checked, instead of the solve failing back to the state it started from.
+TEST(DemMlp, GaussNewtonStepsStopBeforeTheTimeLimitAndKeepTheirAnswer) {
+  const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(4, 1, 1), Eigen::Vector3i(12, 3, 3));
+  dm::DemConfig config = smallMlp(0, 100000);
+  config.gauss_newton.tolerance = 0.0;  // only the time stops them
+  dm::SolveControl control;
+  control.time_limit = 3.0;
+  dm::DemSolver dem(cloud, beam3d(), config, control);
+  const std::vector<Vector3d> before = dem.predict({Vector3d(4, 0.5, 0.5)});
+  const auto start = std::chrono::steady_clock::now();
+  try {
+    dem.solve();
+  } catch (const dm::SolveError& e) {  // the check may refuse what the guard kept; not the time limit
+    EXPECT_NE(e.failure(), dm::SolveFailure::kTimeLimit) << e.what();
+  }
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::printf("time limit 3 s: solve and check %.2f s, tip %.4f\n", seconds, dem.predict({Vector3d(4, 0.5, 0.5)})[0].y());
+  EXPECT_LT(dem.predict({Vector3d(4, 0.5, 0.5)})[0].y(), before[0].y() - 0.5) << "the trained field was not kept";
+}
+
 // The Gauss-Newton steps need the fused kernel's MLP on the cell quadrature: asked for elsewhere
 // (here with autograd's loss), the solve says so instead of training something else.
 TEST(DemMlp, GaussNewtonOutsideTheMlpAloneIsAnError) {
