@@ -247,11 +247,13 @@ std::string DemSolver::Impl::mlpAdvice() const {
            : config.lbfgs.sample_iterations > 0 ? " and " + std::to_string(config.lbfgs.iterations) +
                                                      " L-BFGS iterations on jitter draws"
                                                : std::string(" and an L-BFGS polish"))
-       << (config.gauss_newton.steps > 0 ? " and " + std::to_string(config.gauss_newton.steps) + " Gauss-Newton steps"
-                                         : std::string())
+       << (config.gauss_newton.steps <= 0        ? std::string()
+           : gauss_newton_ended.empty()          ? " and up to " + std::to_string(config.gauss_newton.steps) + " Gauss-Newton steps"
+                                                 : " and " + gauss_newton_ended)
        << " per load step on " << xv.size(0)
        << " volume particles" << (config.boundary.kind == DemConfig::Boundary::kPenalty ? " with the penalty boundary" : "")
-       << ". Likely causes: too few steps for this body and load (raise adam.iterations, lbfgs.iterations or gauss_newton.steps), "
+       << ". Likely causes: too few steps for this body and load (raise adam.iterations, lbfgs.iterations, or gauss_newton.steps "
+          "or lower gauss_newton.tolerance, whichever stopped them), "
           "a penalty weight that lets the fixtures slip (boundary.kind exact), or particles whose midpoint rule "
           "the network exploits (random or NeRF clouds). The feature-grid DEM (--method grid, the default) "
           "solves the same problem by Newton and checks it the same way.";

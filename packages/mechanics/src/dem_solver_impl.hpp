@@ -236,6 +236,8 @@ struct DemSolver::Impl {
   // The exploit guard's verdict on the last L-BFGS run: empty, or why it kept an earlier state
   // (that state is then no converged minimum, and checkMlpAnswer refuses it).
   std::string exploit_kept;
+  // How the last Gauss-Newton steps ended ("112 (converged: ...)"), for the check's advice.
+  std::string gauss_newton_ended;
 };
 
 /// Row-major tensor (rows x cols) -> Eigen, in double.

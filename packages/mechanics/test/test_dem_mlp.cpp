@@ -151,6 +151,57 @@ TEST(DemMlp, GaussNewtonOnSpreadDrawsReachesTheSameEquilibrium) {
   EXPECT_NEAR(dem.predict({Vector3d(4, 0.5, 0.5)})[0].y(), -1.2054, 0.05 * 1.2054);
 }
 
+// gauss_newton.tolerance: the steps stop once the energy fell by less than tolerance x |E| over the
+// last `window` steps, before the cap. On the cantilever the default rule must stop well before a
+// generous cap, and the steps it leaves out must not move the answer: its tip equals the one the
+// whole cap trains to 0.5 %, where a rule far too loose (1e-2) stops sooner and measurably short.
+TEST(DemMlp, GaussNewtonStopsOnceConvergedAndNotBefore) {
+  const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(4, 1, 1), Eigen::Vector3i(12, 3, 3));
+  constexpr int kCap = 150;
+  const auto solve = [&](double tolerance, int& steps) {
+    dm::DemConfig config = smallMlp(0, kCap);
+    config.gauss_newton.tolerance = tolerance;
+    dm::DemSolver dem(cloud, beam3d(), config);
+    try {
+      steps = dem.solve().iterations;
+    } catch (const dm::SolveError& e) {  // the too-loose rule's answer may be refused; the tip is compared
+      steps = -1;
+    }
+    return dem.predict({Vector3d(4, 0.5, 0.5)})[0].y();
+  };
+  int rule = 0, all = 0, loose = 0;
+  const double tip_rule = solve(dm::DemGaussNewtonConfig{}.tolerance, rule), tip_all = solve(0.0, all),
+               tip_loose = solve(1e-2, loose);
+  std::printf("Beam3D 12x3x3, cap %d: default rule %d steps, tip %.5f; no rule %d steps, %.5f; tolerance 1e-2 %d "
+              "steps, %.5f\n", kCap, rule, tip_rule, all, tip_all, loose, tip_loose);
+  ASSERT_GT(rule, 0) << "the default rule's answer was refused by the check";
+  ASSERT_GT(all, 0) << "the whole cap's answer was refused by the check";
+  EXPECT_LT(rule, all) << "the default rule did not stop before the steps without it";
+  EXPECT_NEAR(tip_rule, tip_all, 0.005 * std::abs(tip_all)) << "the default rule stopped short";
+  EXPECT_GT(std::abs(tip_loose - tip_all), 2 * std::abs(tip_rule - tip_all)) << "a loose rule is not measurably short";
+}
+
+// The solve's time limit is the steps' other cap: they stop before a step that would cross it, and
+// the answer is kept and checked, instead of the solve failing back to the state it started from.
+TEST(DemMlp, GaussNewtonStepsStopBeforeTheTimeLimitAndKeepTheirAnswer) {
+  const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(4, 1, 1), Eigen::Vector3i(12, 3, 3));
+  dm::DemConfig config = smallMlp(0, 100000);
+  config.gauss_newton.tolerance = 0.0;  // only the time stops them
+  dm::SolveControl control;
+  control.time_limit = 3.0;
+  dm::DemSolver dem(cloud, beam3d(), config, control);
+  const std::vector<Vector3d> before = dem.predict({Vector3d(4, 0.5, 0.5)});
+  const auto start = std::chrono::steady_clock::now();
+  try {
+    dem.solve();
+  } catch (const dm::SolveError& e) {  // the check may refuse what the guard kept; not the time limit
+    EXPECT_NE(e.failure(), dm::SolveFailure::kTimeLimit) << e.what();
+  }
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::printf("time limit 3 s: solve and check %.2f s, tip %.4f\n", seconds, dem.predict({Vector3d(4, 0.5, 0.5)})[0].y());
+  EXPECT_LT(dem.predict({Vector3d(4, 0.5, 0.5)})[0].y(), before[0].y() - 0.5) << "the trained field was not kept";
+}
+
 // The Gauss-Newton steps need the fused kernel's MLP on the cell quadrature: asked for elsewhere
 // (here with autograd's loss), the solve says so instead of training something else.
 TEST(DemMlp, GaussNewtonOutsideTheMlpAloneIsAnError) {
@@ -215,6 +266,7 @@ double selfWeightEnergyAfterSteps(bool current_tangent, int steps) {
   config.gauss_newton.sample = 300;
   config.gauss_newton.spread = true;
   config.gauss_newton.current_tangent = current_tangent;
+  config.gauss_newton.tolerance = 0.0;  // exactly `steps` steps: the rate is compared
   double energy = 0.0;
   dm::SolveControl control;
   control.progress_interval = 0.0;  // every step

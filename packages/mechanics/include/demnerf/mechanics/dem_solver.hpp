@@ -87,7 +87,12 @@ struct DemLbfgsConfig {
 /// Levenberg-Marquardt on the true energy's decrease. Needs the fused kernel's MLP (float32, tanh,
 /// no grid, not parametric), the exact boundary and lbfgs.cell_spacings > 0.
 struct DemGaussNewtonConfig {
-  int steps = 0;          ///< steps per load step; 0: off (0)
+  int steps = 0;          ///< most steps per load step; 0: off (0)
+  /// Converged: the energy fell by less than tolerance x |E| over the last `window` steps; the
+  /// steps stop there, before `steps` or the solve's time limit, the other two caps (0: no such
+  /// stop) (2e-3)
+  double tolerance = 2e-3;
+  int window = 10;  ///< steps the energy change is measured over (10)
   int sample = 1000;      ///< Gauss points G is formed on, drawn afresh each step (1000)
   double damping = 1e-3;  ///< mu's start, relative to G's mean diagonal (1e-3)
   /// The draw: `spread` picks the points systematically along the cells' order with probability
