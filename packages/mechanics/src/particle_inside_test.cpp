@@ -163,8 +163,9 @@ double ParticleInsideTest::signedDistance(const Eigen::Vector3d& x, Eigen::Vecto
 }
 
 // Near the surface: the side of the nearest surface particle's tangent plane (moved out by the
-// surface offset). Nearest, not a weighted blend of planes: a blend rounds convex edges by about
-// a spacing (4 % of a unit cube's volume at 12 particles per edge).
+// surface offset). Nearest, not a weighted blend of every face's planes: that rounds convex edges by
+// about a spacing (4 % of a unit cube's volume at 12 particles per edge); on a rough face only that
+// face's planes are blended (blendedDistance).
 template <typename Nearby>
 bool ParticleInsideTest::nearSurface(const Eigen::Vector3d& x, Nearby&& nearby, Eigen::Vector3d* normal,
                                      double& d) const {
@@ -276,7 +277,7 @@ double ParticleInsideTest::distanceNear(const Eigen::Vector3d& x, int nearest, N
   const Eigen::Vector3d& p = positions_[nearest];
   const Eigen::Vector3d& n = normals_[nearest];
   const double reach = (x - p).norm() + edge_reach_ * spacing_;
-  double d = rough_[nearest] ? blendedDistance(x, nearest, nearby) : distance(nearest);
+  double d = blend_rough_ && rough_[nearest] ? blendedDistance(x, nearest, nearby) : distance(nearest);
   nearby([&](int j) {
     if (normals_[j].dot(n) >= kEdgeCosine || (x - positions_[j]).squaredNorm() > reach * reach) return;
     const bool j_behind_nearest = (positions_[j] - p).dot(n) < 0;

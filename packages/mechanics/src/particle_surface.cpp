@@ -48,7 +48,8 @@ core::TriangleMesh surfaceOfParticles(const core::ParticleCloud& cloud, double s
   field.dims = (intervals.array() + 6.0).cast<int>().matrix();
   field.values.resize(static_cast<std::size_t>(field.dims.prod()));
   // Positive inside: the iso-surface's "density" is the depth below the surface.
-  const ParticleInsideTest inside(cloud);
+  ParticleInsideTest inside(cloud);
+  inside.setBlendRoughFaces(false);  // the nearest plane: see setBlendRoughFaces
   for (int k = 0; k < field.dims.z(); ++k)
     for (int j = 0; j < field.dims.y(); ++j)
       for (int i = 0; i < field.dims.x(); ++i)
