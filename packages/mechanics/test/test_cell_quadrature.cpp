@@ -148,6 +148,20 @@ TEST(ParticleInsideTest, PointsBeyondTheSurfaceParticlesReachAreOutside) {
   EXPECT_EQ(wrong, 0) << wrong << " of " << tried << " points 2.2-2.9 spacings outside a face counted inside";
 }
 
+namespace {
+
+// One particle: interior ones carry volume, surface ones an area and an outward normal.
+void addParticle(demnerf::core::ParticleCloud& cloud, const Vector3d& x, double volume, const Vector3d& normal,
+                 double area) {
+  cloud.positions.push_back(x);
+  cloud.volumes.push_back(volume);
+  cloud.normals.push_back(normal);
+  cloud.areas.push_back(area);
+  cloud.colors.push_back({0, 0, 0});
+}
+
+}  // namespace
+
 // A face's tangent plane extends past where its particles end: a point beyond a slab's open edge
 // lies behind the top and bottom faces' planes, within two spacings of their particles, yet more
 // than 1.5 spacings from every particle. It is outside (no body has a hole that large; deepSide()'s rule).
@@ -156,11 +170,7 @@ TEST(ParticleInsideTest, PointsBeyondTheSurfaceParticlesReachAreOutside) {
 TEST(ParticleInsideTest, PointsBehindAPlaneButFarFromEveryParticleAreOutside) {
   demnerf::core::ParticleCloud slab;  // [0, 0.1]^2 x [0, 0.02], 10 mm lattice, no side faces
   const auto add = [&](const Vector3d& x, double volume, const Vector3d& normal, double area) {
-    slab.positions.push_back(x);
-    slab.volumes.push_back(volume);
-    slab.normals.push_back(normal);
-    slab.areas.push_back(area);
-    slab.colors.push_back({0, 0, 0});
+    addParticle(slab, x, volume, normal, area);
   };
   for (int i = 0; i < 10; ++i)
     for (int j = 0; j < 10; ++j) {
@@ -194,11 +204,7 @@ TEST(ParticleInsideTest, ABumpyFacesBlendedPlanesFollowItsBumps) {
   const auto height = [&](double x, double y) { return 0.02 + amplitude * std::cos(k * x) * std::cos(k * y); };
   demnerf::core::ParticleCloud slab;  // [0, 0.1]^2 x [0, ~0.02], 10 mm spacing
   const auto add = [&](const Vector3d& x, double volume, const Vector3d& normal, double area) {
-    slab.positions.push_back(x);
-    slab.volumes.push_back(volume);
-    slab.normals.push_back(normal);
-    slab.areas.push_back(area);
-    slab.colors.push_back({0, 0, 0});
+    addParticle(slab, x, volume, normal, area);
   };
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u01(0.0, 1.0);
