@@ -173,13 +173,27 @@ TEST(FemFactor, ShiftsAnIndefiniteTangentIntoADescentStep) {
 }
 
 TEST(FemFactor, FallsBackToLdltWhereNoShiftOfTheLadderHelps) {
-  // -A is negative definite: even a shift of its whole |diagonal| leaves no diagonal to lean on.
-  const Eigen::SparseMatrix<double> A = -latticeMatrix(6, 5, 4, 1.2);
+  // Couplings with an all but zero diagonal (1e-3 against row sums of ~20): even the ladder's top
+  // rung, a thousand times |diag|, leaves it indefinite.
+  const Eigen::SparseMatrix<double> A = latticeMatrix(6, 5, 4, 0.0);
   double shift = 1.0;
   const double residual = factorResidual(A, true, &shift);
   EXPECT_GE(residual, 0.0) << "the LDL^T fallback did not factor a regular tangent";
   EXPECT_LT(residual, 1e-8);
   EXPECT_EQ(shift, 0.0) << "the LDL^T factors the tangent itself";
+}
+
+TEST(FemFactor, ShiftsANegativeDefiniteTangentIntoADescentStepToo) {
+  // Far from equilibrium a bumpy mesh's small elements can need ten times their diagonal; a
+  // negative definite tangent is the extreme case, and it still gets a descent step from the
+  // Cholesky (the LDL^T's Newton step would go uphill, and on one core).
+  const Eigen::SparseMatrix<double> A = -latticeMatrix(6, 5, 4, 1.2);
+  double shift = 0.0, descent = 0.0;
+  const double residual = factorResidual(A, true, &shift, &descent);
+  EXPECT_GE(residual, 0.0);
+  EXPECT_LT(residual, 1e-10);
+  EXPECT_GT(shift, 1.0);
+  EXPECT_GT(descent, 0.0) << "the shifted step does not go downhill";
 }
 
 }  // namespace
