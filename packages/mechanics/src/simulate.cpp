@@ -70,6 +70,17 @@ void reportMeshing(double volume, bool of_particles, const VoxelMeshConfig& voxe
   clock.report(meshing, true);
 }
 
+/// Says what the mesher made: its size is known only now (a bumpy surface refines it past the
+/// estimate reportMeshing gave), and the solve's cost follows it.
+void reportMesh(const TetMesh& mesh, SolveClock& clock) {
+  SolveProgress meshed;
+  std::ostringstream phase;
+  phase << "meshed: " << mesh.elements.size() << " tetrahedra, " << 3 * mesh.nodes.size() << " dofs";
+  meshed.phase = phase.str();
+  meshed.residual = std::numeric_limits<double>::quiet_NaN();
+  clock.report(meshed, true);
+}
+
 /// The share of the surface particles whose face is not flat around them (ParticleInsideTest's
 /// rough particles): nearly all on a NeRF extraction or a scan, none on a sampled flat-faced body.
 double roughSurfaceShare(const core::ParticleCloud& cloud) {
@@ -164,6 +175,7 @@ void solveFem(const core::ParticleCloud& cloud, const core::Scenario& scenario, 
   out.mesh_nodes = static_cast<int>(mesh.nodes.size());
   out.mesh_elements = static_cast<int>(mesh.elements.size());
   out.mesh_cell = voxel.cell;
+  reportMesh(mesh, clock);
   clock.check("no state (meshing took the budget: " + std::to_string(out.mesh_elements) +
               " elements at a cell of " + std::to_string(voxel.cell) + " m; pass a larger --cell)");
   FemSolver fem(std::move(mesh), scenario, options.fem);
