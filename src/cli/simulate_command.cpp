@@ -74,6 +74,7 @@ Figures runSimulate(const Arguments& arguments) {
   try {
     outcome = mechanics::simulate(cloud, scenario, solver, options);
     if (!outcome.unverified.empty()) std::cerr << "demnerf simulate: warning: not verified: " << outcome.unverified << "\n";
+    if (!outcome.coarse_grid.empty()) std::cerr << "demnerf simulate: warning: " << outcome.coarse_grid << "\n";
     if (outcome.held_unknowns > 0)
       std::cerr << "demnerf simulate: note: " << outcome.held_unknowns << " grid unknowns the body barely touches were held "
                 << "(a singular Hessian: a ragged or sliver surface); the equilibrium is the body's with them held, and "

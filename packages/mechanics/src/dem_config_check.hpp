@@ -3,6 +3,8 @@
 // packages/mechanics/src (no torch here).
 
 #include "demnerf/core/ply.hpp"
+#include <string>
+
 #include "demnerf/mechanics/dem_solver.hpp"
 
 namespace demnerf::mechanics {
@@ -15,6 +17,9 @@ double interiorParticleSpacing(const core::ParticleCloud& cloud);
 struct ResolvedDemConfig {
   DemConfig config;
   double spacing = 0.0;  ///< interiorParticleSpacing() of the cloud (m)
+  /// Why the answer will be stiff (empty: no reason known): the particles are too coarse for the
+  /// automatic grid to put kFewestCellsAcross cells across the body's mean thickness.
+  std::string coarse_grid;
 };
 
 /// `config` with grid.cell resolved from grid.spacings or grid.body_cells; core::Error naming the

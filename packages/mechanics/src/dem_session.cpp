@@ -92,6 +92,7 @@ DemSessionAnswer DemSession::answer(const core::Scenario& scenario, const SolveC
       const DemReport report = solver_->solve();
       answer.outcome.energy = report.energy;
       unverified_ = report.unverified;
+      answer.outcome.coarse_grid = report.coarse_grid;
       answer.outcome.field = solver_->result();
       trained_ = scenario;
     } catch (...) {

@@ -48,6 +48,7 @@ DemSolver::DemSolver(core::ParticleCloud cloud, const core::Scenario& scenario, 
   const ResolvedDemConfig resolved = resolvedDemConfig(config, cloud);
   config = resolved.config;
   const double spacing = resolved.spacing;
+  m.coarse_grid = resolved.coarse_grid;
   m.config = config;
   m.dtype = config.network.double_precision ? torch::kFloat64 : torch::kFloat32;
   m.cloud = std::move(cloud);
@@ -302,6 +303,7 @@ DemReport DemSolver::solve() {
     if (m.config.verbose) m.mlpEquilibrium(1.0);  // the MLP's check on this answer, for comparison only
   }
   report.energy = energy;
+  report.coarse_grid = m.coarse_grid;
   if (!m.grid) m.verifyMlpAnswer(report);  // no Newton says the MLP converged: its own check
   m.checkAnswer(report);
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -40,6 +40,7 @@ struct DemSolver::Impl {
   core::Scenario scenario;
   std::vector<HeldFace> held;  // what each fixture holds (held_face.hpp), fitted to the cloud per scenario
   DemConfig config;
+  std::string coarse_grid;  ///< ResolvedDemConfig::coarse_grid, for every report
   std::unique_ptr<HyperelasticMaterial> material;
   torch::Dtype dtype = torch::kFloat64;
   double length = 1.0, out_scale = 1.0, energy_scale = 1.0;

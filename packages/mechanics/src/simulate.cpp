@@ -138,6 +138,7 @@ void solveDem(const core::ParticleCloud& cloud, const core::Scenario& scenario, 
   const DemReport report = dem.solve();
   out.energy = report.energy;
   out.unverified = report.unverified;
+  out.coarse_grid = report.coarse_grid;
   out.residual = report.residual;
   out.held_unknowns = report.held_unknowns;
   out.held_residual = report.held_residual;

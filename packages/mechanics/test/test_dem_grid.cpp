@@ -356,3 +356,21 @@ TEST(DemGrid, SolveControlStopsReportsAndKeepsTheLastGoodState) {
     }
   }
 }
+
+TEST(DemGrid, ParticlesTooCoarseForTheBodysGridSayTheAnswerWillBeStiff) {
+  // The grid is never finer than 0.6 particle spacings. Two particles across the 60 mm bar floor
+  // its cells at 18 mm, three across its 53 mm mean thickness (4V/A): a stiff answer, said so.
+  // Six particles across leave the body's own 8.9 mm cells, six across its thickness: nothing to say.
+  const core::Scenario twist = twistedBar(0.5);
+  const auto solveOn = [&](int across) {
+    const core::ParticleCloud bar = dm::makeBoxParticles(Vector3d(-0.03, -0.03, 0), Vector3d(0.03, 0.03, 0.24),
+                                                         Eigen::Vector3i(across, across, 4 * across));
+    dm::DemSolver dem(bar, twist, dm::DemConfig{});
+    return dem.solve();
+  };
+  const dm::DemReport coarse = solveOn(2);
+  EXPECT_NE(coarse.coarse_grid.find("cells across the body's mean thickness"), std::string::npos) << coarse.coarse_grid;
+  EXPECT_NE(coarse.coarse_grid.find("stiff"), std::string::npos) << coarse.coarse_grid;
+  const dm::DemReport fine = solveOn(6);
+  EXPECT_EQ(fine.coarse_grid, "");
+}

@@ -110,6 +110,10 @@ demnerf::mechanics::SimulationOutcome DemNode::solveWithSession(const SolveJob& 
                                : answer.mode == "warm" ? dem_nerf::SolveAnswer::WARM
                                                        : dem_nerf::SolveAnswer::COLD;
   if (instant) report.figures.load_scale = answer.load_scale;
+  if (!answer.outcome.coarse_grid.empty()) {
+    report.how += " (coarse particles: a stiff answer)";
+    ROS_WARN_THROTTLE(10.0, "dem_node: %s", answer.outcome.coarse_grid.c_str());
+  }
   if (!answer.unverified.empty()) {
     report.how += " (not verified as an equilibrium)";
     ROS_WARN_THROTTLE(10.0, "dem_node: parametric DEM answer not verified: %s", answer.unverified.c_str());

@@ -233,6 +233,9 @@ struct DemReport {
   /// Parametric mode only: why its answer at the trained load failed the MLP's equilibrium check
   /// (empty: it passed). Its answers are kept and used, and this says they are not verified.
   std::string unverified;
+  /// Why the answer will be stiff although it is an equilibrium (empty: none known): the particles
+  /// were too coarse for the automatic grid to put four cells across the body's mean thickness.
+  std::string coarse_grid;
   bool polish_rejected = false;  ///< an L-BFGS polish was undone (exploit guard)
 };
 

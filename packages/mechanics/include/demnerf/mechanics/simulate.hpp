@@ -67,6 +67,7 @@ struct SimulationOutcome {
   int mesh_elements = 0;          ///< FEM only
   double mesh_cell = 0.0;         ///< FEM only: the cell (target edge) the mesh was made with (m)
   std::string unverified;         ///< parametric DEM only: why it failed its equilibrium check (DemReport)
+  std::string coarse_grid;        ///< DEM: why the answer will be stiff (DemReport::coarse_grid)
   double residual = std::numeric_limits<double>::quiet_NaN();  ///< DEM grid: DemReport::residual
   long held_unknowns = 0;       ///< DEM grid: DemReport::held_unknowns
   double held_residual = 0.0;   ///< DEM grid: DemReport::held_residual
