@@ -88,18 +88,6 @@ double interiorParticleSpacing(const core::ParticleCloud& cloud) {
 
 namespace {
 
-// The cell on a rough surface: rough_cell_ratio of the body's when the surface particles scatter
-// about their local quadric by more than rough_surface of the radius they are fitted over (two
-// cells, at least three surface spacings: a quadric's six coefficients need the neighbours), but
-// never finer than the particles resolve. Exactly sampled faces scatter 0; the NeRF T-bar's 1.5-2.4 %.
-// A cloud with fewer particles than body_cells keeps its cell: the NeRF cuboid's random 1/10
-// cloud (1,954 particles) is softer than its surface (its inside test rounds the loaded end), which
-// the 10.3 mm grid's stiffness cancelled and the 8.24 mm one exposed (rel. L2 1.64 -> 2.01 %). The
-// rule first compared the particles with the finer grid's body cells, for the cost: the NeRF
-// T-bar's 1/6 clouds (3,400 particles, 3,900 cells at 7.88 mm) took 3 factorisations from a nested
-// start the exact Hessian called indefinite; with the projected start (dem_grid_nested.cpp) they take
-// one, and the finer cell brings their energy within 1 % (docs/dem_feature_grid.md, "A positive
-// definite first fine step").
 // Fewer cells than this across the mean thickness make a stiff answer: a 158-particle NeRF cuboid
 // cantilever (the render rostest's, 2.7 cells) came out 13 % stiffer in energy than the FEM on the
 // same particles; the matrix's coarsest clouds get the body's 6.
@@ -120,6 +108,18 @@ std::string coarseGridNote(double cell, double floor, double volume, double area
   return note.str();
 }
 
+// The cell on a rough surface: rough_cell_ratio of the body's when the surface particles scatter
+// about their local quadric by more than rough_surface of the radius they are fitted over (two
+// cells, at least three surface spacings: a quadric's six coefficients need the neighbours), but
+// never finer than the particles resolve. Exactly sampled faces scatter 0; the NeRF T-bar's 1.5-2.4 %.
+// A cloud with fewer particles than body_cells keeps its cell: the NeRF cuboid's random 1/10
+// cloud (1,954 particles) is softer than its surface (its inside test rounds the loaded end), which
+// the 10.3 mm grid's stiffness cancelled and the 8.24 mm one exposed (rel. L2 1.64 -> 2.01 %). The
+// rule first compared the particles with the finer grid's body cells, for the cost: the NeRF
+// T-bar's 1/6 clouds (3,400 particles, 3,900 cells at 7.88 mm) took 3 factorisations from a nested
+// start the exact Hessian called indefinite; with the projected start (dem_grid_nested.cpp) they take
+// one, and the finer cell brings their energy within 1 % (docs/dem_feature_grid.md, "A positive
+// definite first fine step").
 double roughSurfaceCell(const DemConfig& config, const core::ParticleCloud& cloud, double spacing) {
   const DemGridConfig& g = config.grid;
   if (!(g.rough_surface > 0) || !(g.rough_cell_ratio < 1)) return g.cell;

@@ -2,9 +2,9 @@
 // The DEM's settings checked against a particle cloud before anything is built. Private to
 // packages/mechanics/src (no torch here).
 
-#include "demnerf/core/ply.hpp"
 #include <string>
 
+#include "demnerf/core/ply.hpp"
 #include "demnerf/mechanics/dem_solver.hpp"
 
 namespace demnerf::mechanics {
