@@ -56,6 +56,8 @@ std::vector<Field> trainingFields(DemConfig& c) {
       number(l, "tolerance", c.lbfgs.tolerance, 0, false, kInf, "L-BFGS stops when the loss changes less than this"),
       number(l, "cell_spacings", c.lbfgs.cell_spacings, 0, false, kInf,
              "sampled L-BFGS on Gauss points in cells of this many particle spacings (0: the particles)"),
+      integer(l, "cell_boundary_levels", c.lbfgs.cell_boundary_levels, 0, 4,
+              "times a cut cell of that quadrature is split 2 x 2 x 2 (0: the whole cell moment-fitted)"),
       integer(gn, "steps", c.gauss_newton.steps, 0, kMany,
               "most Gauss-Newton steps after the L-BFGS, MLP alone on the cell quadrature (0: off)"),
       number(gn, "tolerance", c.gauss_newton.tolerance, 0, false, kInf,

@@ -109,7 +109,8 @@ DemSolver::Impl::JitterDraw DemSolver::Impl::cellQuadratureDraw(double shift) {
   const BsplineGrid cells(box.center - box.half - margin - offset, box.center + box.half + margin - offset, cell, 1);
   CellQuadratureConfig cq;
   cq.points_per_axis = 2;
-  cq.boundary_levels = 0;  // cut cells moment-fitted whole: split, a thin body's cells held 8x the points
+  // Cut cells moment-fitted whole by default: split, a thin body's cells hold 8x the points.
+  cq.boundary_levels = config.lbfgs.cell_boundary_levels;
   cq.threads = config.threads;
   const CellQuadrature q = cellQuadrature(cloud, cells, cq);
   const DirichletLift lift = liftAt(q.points);

@@ -67,6 +67,8 @@ TEST(SolverConfig, GaussNewtonFileTurnsTheMlpPresetIntoGaussNewtonSteps) {
   EXPECT_TRUE(o.dem.gauss_newton.current_tangent);
   EXPECT_EQ(o.dem.boundary.kind, dm::DemConfig::Boundary::kExact);
   EXPECT_GT(o.dem.lbfgs.cell_spacings, 0.0);  // Gauss-Newton needs the cell quadrature
+  EXPECT_EQ(o.dem.lbfgs.cell_boundary_levels, 1);  // cut cells split once: the NeRF T-bar's twist
+  EXPECT_EQ(dm::SimulateOptions{}.dem.lbfgs.cell_boundary_levels, 0);
   EXPECT_EQ(o.dem.grid.body_cells, 0.0);      // the MLP alone, no feature grid
   EXPECT_EQ(dm::SimulateOptions{}.dem.gauss_newton.steps, 0) << "Gauss-Newton is not the default";
 }
@@ -77,6 +79,7 @@ TEST(SolverConfig, WrittenSettingsReadBackTheSame) {
   options.dem.boundary.kind = dm::DemConfig::Boundary::kPenalty;  // not a default
   options.dem.adam.jitter_band = 2.5;
   options.dem.lbfgs.tolerance = 3e-11;
+  options.dem.lbfgs.cell_boundary_levels = 2;
   options.dem.network.seed = -7;
   options.fem.linear_solver = dm::FemConfig::LinearSolver::kConjugateGradient;
   options.fem.ordering = dm::FemConfig::Ordering::kNestedDissection;
@@ -90,6 +93,7 @@ TEST(SolverConfig, WrittenSettingsReadBackTheSame) {
   EXPECT_EQ(dm::solverConfigYaml(back), text);
   EXPECT_EQ(back.dem.boundary.kind, dm::DemConfig::Boundary::kPenalty);
   EXPECT_EQ(back.dem.lbfgs.tolerance, 3e-11);
+  EXPECT_EQ(back.dem.lbfgs.cell_boundary_levels, 2);
   EXPECT_EQ(back.dem.network.seed, -7);
   EXPECT_EQ(back.fem.linear_solver, dm::FemConfig::LinearSolver::kConjugateGradient);
   EXPECT_EQ(back.pinn.activation, "sin");

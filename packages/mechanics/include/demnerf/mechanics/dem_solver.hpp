@@ -77,6 +77,9 @@ struct DemLbfgsConfig {
   /// particle spacings over the body the cloud describes (cell_quadrature.hpp), one fixed
   /// quadrature, instead of jitter draws of the particles; 0: the particles (0)
   double cell_spacings = 0.0;
+  /// With cell_spacings: times a cell the surface cuts is split 2 x 2 x 2 before its inside part is
+  /// moment-fitted (cell_quadrature.hpp); 0 fits the whole cut cell's 8 points (0)
+  int cell_boundary_levels = 0;
 };
 
 /// Gauss-Newton steps after the L-BFGS, the MLP alone (issue 13: L-BFGS stalls on the T-bar twist,
