@@ -92,7 +92,7 @@ DemSessionAnswer DemSession::answer(const core::Scenario& scenario, const SolveC
       const DemReport report = solver_->solve();
       answer.outcome.energy = report.energy;
       unverified_ = report.unverified;
-      answer.outcome.coarse_grid = report.coarse_grid;
+      coarse_grid_ = report.coarse_grid;
       answer.outcome.field = solver_->result();
       trained_ = scenario;
     } catch (...) {
@@ -104,6 +104,7 @@ DemSessionAnswer DemSession::answer(const core::Scenario& scenario, const SolveC
     answer.outcome.max_displacement = std::max(answer.outcome.max_displacement, u.norm());
   answer.outcome.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   answer.unverified = unverified_;
+  answer.outcome.coarse_grid = coarse_grid_;  // instant answers scale the same training
   return answer;
 }
 

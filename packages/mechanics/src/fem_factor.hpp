@@ -16,9 +16,9 @@
 // a tangent that no shift of the ladder makes positive definite.
 //
 // Why the ladder reaches 10^3: a bumpy mesh's small elements, far from equilibrium, can need ten
-// times their diagonal. With the ladder ending at 1, a 152-particle NeRF cuboid's cantilever (the
-// render rostest's, 39.6k dofs) sent 7 tangents to the one-core LDL^T, 25 s each: 190 s. Shifts of
-// up to 10 took 24 s to the same equilibrium (-0.1601720 J both).
+// times their diagonal. With the ladder ending at 1, a 39.6k-dof mesh of one of the render
+// rostest's 152-particle NeRF cuboids, bent, sent 7 tangents to the one-core LDL^T, 25 s each:
+// 190 s. Shifts of up to 10 took 24 s to the same equilibrium (-0.1601720 J both).
 
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>

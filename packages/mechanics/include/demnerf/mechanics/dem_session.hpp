@@ -52,6 +52,7 @@ class DemSession {
   std::unique_ptr<DemSolver> solver_;
   core::Scenario trained_;  ///< the load case the network was trained for
   std::string unverified_;  ///< its training's failed equilibrium check (parametric), if any
+  std::string coarse_grid_;  ///< its grid too coarse for the body (DemReport::coarse_grid), if so
 };
 
 }  // namespace demnerf::mechanics
