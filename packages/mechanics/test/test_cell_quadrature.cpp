@@ -25,21 +25,11 @@ demnerf::core::ParticleCloud randomBox(const Vector3d& lower, const Vector3d& up
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u01(0.0, 1.0);
   const double volume = (upper - lower).prod();
-  for (int i = 0; i < n; ++i) {
-    out.positions.push_back(lower + (upper - lower).cwiseProduct(Vector3d(u01(rng), u01(rng), u01(rng))));
-    out.volumes.push_back(volume / n);
-    out.normals.push_back(Vector3d::Zero());
-    out.areas.push_back(0.0);
-    out.colors.push_back({0, 0, 0});
-  }
+  for (int i = 0; i < n; ++i)
+    dm::test::addParticle(out, lower + (upper - lower).cwiseProduct(Vector3d(u01(rng), u01(rng), u01(rng))), volume / n,
+                          Vector3d::Zero(), 0.0);
   for (std::size_t i = 0; i < cloud.size(); ++i)
-    if (cloud.isSurface(i)) {
-      out.positions.push_back(cloud.positions[i]);
-      out.volumes.push_back(0.0);
-      out.normals.push_back(cloud.normals[i]);
-      out.areas.push_back(cloud.areas[i]);
-      out.colors.push_back({0, 0, 0});
-    }
+    if (cloud.isSurface(i)) dm::test::addParticle(out, cloud.positions[i], 0.0, cloud.normals[i], cloud.areas[i]);
   return out;
 }
 
@@ -148,20 +138,6 @@ TEST(ParticleInsideTest, PointsBeyondTheSurfaceParticlesReachAreOutside) {
   EXPECT_EQ(wrong, 0) << wrong << " of " << tried << " points 2.2-2.9 spacings outside a face counted inside";
 }
 
-namespace {
-
-// One particle: interior ones carry volume, surface ones an area and an outward normal.
-void addParticle(demnerf::core::ParticleCloud& cloud, const Vector3d& x, double volume, const Vector3d& normal,
-                 double area) {
-  cloud.positions.push_back(x);
-  cloud.volumes.push_back(volume);
-  cloud.normals.push_back(normal);
-  cloud.areas.push_back(area);
-  cloud.colors.push_back({0, 0, 0});
-}
-
-}  // namespace
-
 // A face's tangent plane extends past where its particles end: a point beyond a slab's open edge
 // lies behind the top and bottom faces' planes, within two spacings of their particles, yet more
 // than 1.5 spacings from every particle. It is outside (no body has a hole that large; deepSide()'s rule).
@@ -170,7 +146,7 @@ void addParticle(demnerf::core::ParticleCloud& cloud, const Vector3d& x, double 
 TEST(ParticleInsideTest, PointsBehindAPlaneButFarFromEveryParticleAreOutside) {
   demnerf::core::ParticleCloud slab;  // [0, 0.1]^2 x [0, 0.02], 10 mm lattice, no side faces
   const auto add = [&](const Vector3d& x, double volume, const Vector3d& normal, double area) {
-    addParticle(slab, x, volume, normal, area);
+    dm::test::addParticle(slab, x, volume, normal, area);
   };
   for (int i = 0; i < 10; ++i)
     for (int j = 0; j < 10; ++j) {
@@ -204,7 +180,7 @@ TEST(ParticleInsideTest, ABumpyFacesBlendedPlanesFollowItsBumps) {
   const auto height = [&](double x, double y) { return 0.02 + amplitude * std::cos(k * x) * std::cos(k * y); };
   demnerf::core::ParticleCloud slab;  // [0, 0.1]^2 x [0, ~0.02], 10 mm spacing
   const auto add = [&](const Vector3d& x, double volume, const Vector3d& normal, double area) {
-    addParticle(slab, x, volume, normal, area);
+    dm::test::addParticle(slab, x, volume, normal, area);
   };
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u01(0.0, 1.0);
@@ -214,7 +190,8 @@ TEST(ParticleInsideTest, ABumpyFacesBlendedPlanesFollowItsBumps) {
       for (double z : {0.005, 0.015}) add(Vector3d(x, y, z), 1e-6, Vector3d::Zero(), 0.0);
       add(Vector3d(x, y, 0.0), 0.0, Vector3d(0, 0, -1), 1e-4);
       const double u = 0.1 * u01(rng), v = 0.1 * u01(rng);
-      const Vector3d slope(amplitude * k * std::sin(k * u) * std::cos(k * v), amplitude * k * std::cos(k * u) * std::sin(k * v), 1.0);
+      const Vector3d slope(amplitude * k * std::sin(k * u) * std::cos(k * v),
+                           amplitude * k * std::cos(k * u) * std::sin(k * v), 1.0);
       add(Vector3d(u, v, height(u, v)), 0.0, slope.normalized(), 1e-4);
     }
   const dm::ParticleInsideTest inside(slab);
