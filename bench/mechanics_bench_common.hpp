@@ -38,16 +38,6 @@ inline bool inTbar(const Eigen::Vector3d& p) {
   return leg || bar;
 }
 
-/// Appends one particle (grey) to a cloud.
-inline void addParticle(core::ParticleCloud& cloud, const Vector3d& x, double volume, const Vector3d& normal,
-                        double area) {
-  cloud.positions.push_back(x);
-  cloud.volumes.push_back(volume);
-  cloud.normals.push_back(normal);
-  cloud.areas.push_back(area);
-  cloud.colors.push_back({200, 200, 200});
-}
-
 // Midpoint-rule particles of the T-bar on cells of size h (h must divide 0.03 and 0.06): one
 // interior particle per cell, one surface particle per boundary cell face (area h^2, volume 0).
 inline core::ParticleCloud tbarParticles(double h) {
@@ -56,20 +46,17 @@ inline core::ParticleCloud tbarParticles(double h) {
   const Eigen::Vector3i n(static_cast<int>(std::lround(0.30 / h)), static_cast<int>(std::lround(0.06 / h)),
                           static_cast<int>(std::lround(0.30 / h)));
   auto centre = [&](int i, int j, int k) -> Vector3d { return lo + h * Vector3d(i + 0.5, j + 0.5, k + 0.5); };
-  auto add = [&](const Vector3d& x, double volume, const Vector3d& normal, double area) {
-    addParticle(cloud, x, volume, normal, area);
-  };
   for (int k = 0; k < n(2); ++k)
     for (int j = 0; j < n(1); ++j)
       for (int i = 0; i < n(0); ++i) {
         const Vector3d c = centre(i, j, k);
         if (!inTbar(c)) continue;
-        add(c, h * h * h, Vector3d::Zero(), 0.0);
+        cloud.append(c, h * h * h, Vector3d::Zero(), 0.0);
         for (int a = 0; a < 3; ++a)
           for (int s : {-1, 1}) {
             Vector3d d = Vector3d::Zero();
             d(a) = s;
-            if (!inTbar(c + h * d)) add(c + 0.5 * h * d, 0.0, d, h * h);
+            if (!inTbar(c + h * d)) cloud.append(c + 0.5 * h * d, 0.0, d, h * h);
           }
       }
   return cloud;

@@ -31,7 +31,6 @@
 namespace dm = demnerf::mechanics;
 namespace core = demnerf::core;
 using Eigen::Vector3d;
-using demnerf::bench::addParticle;
 
 namespace {
 
@@ -48,9 +47,6 @@ Vector3d cookPoint(double s, double t, double z) {
 core::ParticleCloud cookParticles(int n, int layers) {
   core::ParticleCloud cloud;
   const double thickness = 1e-3, ds = 1.0 / n, dz = thickness / layers, h = 1e-7;
-  auto add = [&](const Vector3d& x, double volume, const Vector3d& normal, double area) {
-    addParticle(cloud, x, volume, normal, area);
-  };
   for (int k = 0; k < layers; ++k) {
     const double z = (k + 0.5) * dz;
     for (int j = 0; j < n; ++j)
@@ -58,13 +54,13 @@ core::ParticleCloud cookParticles(int n, int layers) {
         const double s = (i + 0.5) * ds, t = (j + 0.5) * ds;
         const Vector3d xs = (cookPoint(s + h, t, z) - cookPoint(s - h, t, z)) / (2 * h);
         const Vector3d xt = (cookPoint(s, t + h, z) - cookPoint(s, t - h, z)) / (2 * h);
-        add(cookPoint(s, t, z), std::abs(xs.x() * xt.y() - xs.y() * xt.x()) * ds * ds * dz, Vector3d::Zero(), 0.0);
+        cloud.append(cookPoint(s, t, z), std::abs(xs.x() * xt.y() - xs.y() * xt.x()) * ds * ds * dz, Vector3d::Zero(), 0.0);
       }
     for (int j = 0; j < n; ++j)
       for (const double s : {0.0, 1.0}) {
         const double t = (j + 0.5) * ds;
         const double edge = (cookPoint(s, t + h, z) - cookPoint(s, t - h, z)).norm() / (2 * h);
-        add(cookPoint(s, t, z), 0.0, Vector3d(s == 0.0 ? -1.0 : 1.0, 0, 0), edge * ds * dz);
+        cloud.append(cookPoint(s, t, z), 0.0, Vector3d(s == 0.0 ? -1.0 : 1.0, 0, 0), edge * ds * dz);
       }
   }
   return cloud;

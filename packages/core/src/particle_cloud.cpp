@@ -28,6 +28,15 @@ void ParticleCloud::resize(std::size_t n) {
   colors.resize(n, {200, 200, 200});
 }
 
+void ParticleCloud::append(const Eigen::Vector3d& position, double volume, const Eigen::Vector3d& normal,
+                           double area) {
+  positions.push_back(position);
+  volumes.push_back(volume);
+  normals.push_back(normal);
+  areas.push_back(area);
+  colors.push_back({200, 200, 200});
+}
+
 void ParticleCloud::validate() const {
   const std::size_t n = positions.size();
   if (volumes.size() != n || normals.size() != n || areas.size() != n || colors.size() != n) {

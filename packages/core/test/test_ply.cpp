@@ -48,6 +48,22 @@ TEST(Ply, ParticlesRoundTripEveryField) {
   EXPECT_FALSE(back.isSurface(0));
 }
 
+// Builders of synthetic bodies append particle by particle; every field must grow in step, or
+// validate() (and every reader of the cloud) would see rows that do not line up.
+TEST(ParticleCloud, AppendGrowsEveryFieldInStep) {
+  ParticleCloud cloud;
+  cloud.resize(1);
+  cloud.append({0.1, 0, 0}, 1e-6, Eigen::Vector3d::Zero(), 0.0);
+  cloud.append({0.2, 0, 0}, 0.0, {0, 0, 1}, 4e-4);
+  ASSERT_EQ(cloud.size(), 3u);
+  EXPECT_NO_THROW(cloud.validate());
+  EXPECT_FALSE(cloud.isSurface(1));
+  EXPECT_TRUE(cloud.isSurface(2));
+  EXPECT_EQ(cloud.normals[2], Eigen::Vector3d(0, 0, 1));
+  EXPECT_DOUBLE_EQ(cloud.volumes[1], 1e-6);
+  EXPECT_EQ(cloud.colors[2], cloud.colors[0]);  // grey, as resize() fills
+}
+
 TEST(Ply, ResultRoundTripAndAsciiMeshes) {
   ResultField result;
   result.resize(2);

@@ -10,17 +10,10 @@ core::ParticleCloud makeBoxParticles(const Eigen::Vector3d& lower, const Eigen::
     throw core::Error("makeBoxParticles needs upper > lower and at least one cell per axis");
   const Eigen::Vector3d h = (upper - lower).cwiseQuotient(cells.cast<double>());
   core::ParticleCloud cloud;
-  auto add = [&](const Eigen::Vector3d& x, double volume, const Eigen::Vector3d& n, double area) {
-    cloud.positions.push_back(x);
-    cloud.volumes.push_back(volume);
-    cloud.normals.push_back(n);
-    cloud.areas.push_back(area);
-    cloud.colors.push_back({200, 200, 200});
-  };
   for (int k = 0; k < cells(2); ++k)
     for (int j = 0; j < cells(1); ++j)
       for (int i = 0; i < cells(0); ++i)
-        add(lower + Eigen::Vector3d(i + 0.5, j + 0.5, k + 0.5).cwiseProduct(h), h.prod(), Eigen::Vector3d::Zero(), 0.0);
+        cloud.append(lower + Eigen::Vector3d(i + 0.5, j + 0.5, k + 0.5).cwiseProduct(h), h.prod(), Eigen::Vector3d::Zero(), 0.0);
   for (int axis = 0; axis < 3; ++axis) {
     const int u = (axis + 1) % 3, v = (axis + 2) % 3;
     const double area = h(u) * h(v);
@@ -33,7 +26,7 @@ core::ParticleCloud makeBoxParticles(const Eigen::Vector3d& lower, const Eigen::
           x(axis) = side ? upper(axis) : lower(axis);
           x(u) = lower(u) + (a + 0.5) * h(u);
           x(v) = lower(v) + (b + 0.5) * h(v);
-          add(x, 0.0, n, area);
+          cloud.append(x, 0.0, n, area);
         }
     }
   }

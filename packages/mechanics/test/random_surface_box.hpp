@@ -11,16 +11,6 @@
 
 namespace demnerf::mechanics::test {
 
-// One particle: interior ones carry volume, surface ones an area and an outward normal.
-inline void addParticle(core::ParticleCloud& cloud, const Eigen::Vector3d& x, double volume,
-                        const Eigen::Vector3d& normal, double area) {
-  cloud.positions.push_back(x);
-  cloud.volumes.push_back(volume);
-  cloud.normals.push_back(normal);
-  cloud.areas.push_back(area);
-  cloud.colors.push_back({0, 0, 0});
-}
-
 // Surface particles at random on the box's faces (as a sampler of a mesh places them), coarse:
 // about `spacing` apart, with interior particles on a lattice of that spacing.
 inline core::ParticleCloud randomSurfaceBox(const Eigen::Vector3d& lower, const Eigen::Vector3d& upper, double spacing,
@@ -34,7 +24,7 @@ inline core::ParticleCloud randomSurfaceBox(const Eigen::Vector3d& lower, const 
   for (int k = 0; k < cells(2); ++k)
     for (int j = 0; j < cells(1); ++j)
       for (int i = 0; i < cells(0); ++i)
-        addParticle(out, lower + cell.cwiseProduct(Eigen::Vector3d(i + 0.5, j + 0.5, k + 0.5)), cell.prod(),
+        out.append(lower + cell.cwiseProduct(Eigen::Vector3d(i + 0.5, j + 0.5, k + 0.5)), cell.prod(),
                     Eigen::Vector3d::Zero(), 0.0);
   for (int axis = 0; axis < 3; ++axis)
     for (int side = 0; side < 2; ++side) {
@@ -46,7 +36,7 @@ inline core::ParticleCloud randomSurfaceBox(const Eigen::Vector3d& lower, const 
         x(axis) = side ? upper(axis) : lower(axis);
         x(a) += size(a) * u01(rng);
         x(b) += size(b) * u01(rng);
-        addParticle(out, x, 0.0, (side ? 1.0 : -1.0) * Eigen::Vector3d::Unit(axis), area / n);
+        out.append(x, 0.0, (side ? 1.0 : -1.0) * Eigen::Vector3d::Unit(axis), area / n);
       }
     }
   return out;

@@ -26,10 +26,10 @@ demnerf::core::ParticleCloud randomBox(const Vector3d& lower, const Vector3d& up
   std::uniform_real_distribution<double> u01(0.0, 1.0);
   const double volume = (upper - lower).prod();
   for (int i = 0; i < n; ++i)
-    dm::test::addParticle(out, lower + (upper - lower).cwiseProduct(Vector3d(u01(rng), u01(rng), u01(rng))), volume / n,
+    out.append(lower + (upper - lower).cwiseProduct(Vector3d(u01(rng), u01(rng), u01(rng))), volume / n,
                           Vector3d::Zero(), 0.0);
   for (std::size_t i = 0; i < cloud.size(); ++i)
-    if (cloud.isSurface(i)) dm::test::addParticle(out, cloud.positions[i], 0.0, cloud.normals[i], cloud.areas[i]);
+    if (cloud.isSurface(i)) out.append(cloud.positions[i], 0.0, cloud.normals[i], cloud.areas[i]);
   return out;
 }
 
@@ -145,15 +145,12 @@ TEST(ParticleInsideTest, PointsBeyondTheSurfaceParticlesReachAreOutside) {
 // particle counted as body: 0.8-2.8 cm^3 at the junction, stiff by 0.2-0.6 % in energy.
 TEST(ParticleInsideTest, PointsBehindAPlaneButFarFromEveryParticleAreOutside) {
   demnerf::core::ParticleCloud slab;  // [0, 0.1]^2 x [0, 0.02], 10 mm lattice, no side faces
-  const auto add = [&](const Vector3d& x, double volume, const Vector3d& normal, double area) {
-    dm::test::addParticle(slab, x, volume, normal, area);
-  };
   for (int i = 0; i < 10; ++i)
     for (int j = 0; j < 10; ++j) {
       const double x = 0.005 + 0.01 * i, y = 0.005 + 0.01 * j;
-      for (double z : {0.005, 0.015}) add(Vector3d(x, y, z), 1e-6, Vector3d::Zero(), 0.0);
-      add(Vector3d(x, y, 0.0), 0.0, Vector3d(0, 0, -1), 1e-4);
-      add(Vector3d(x, y, 0.02), 0.0, Vector3d(0, 0, 1), 1e-4);
+      for (double z : {0.005, 0.015}) slab.append(Vector3d(x, y, z), 1e-6, Vector3d::Zero(), 0.0);
+      slab.append(Vector3d(x, y, 0.0), 0.0, Vector3d(0, 0, -1), 1e-4);
+      slab.append(Vector3d(x, y, 0.02), 0.0, Vector3d(0, 0, 1), 1e-4);
     }
   const dm::ParticleInsideTest inside(slab);
   ASSERT_NEAR(inside.spacing(), 0.01, 1e-9);
@@ -179,20 +176,17 @@ TEST(ParticleInsideTest, ABumpyFacesBlendedPlanesFollowItsBumps) {
   const double amplitude = 0.001, k = 2.0 * M_PI / 0.03;
   const auto height = [&](double x, double y) { return 0.02 + amplitude * std::cos(k * x) * std::cos(k * y); };
   demnerf::core::ParticleCloud slab;  // [0, 0.1]^2 x [0, ~0.02], 10 mm spacing
-  const auto add = [&](const Vector3d& x, double volume, const Vector3d& normal, double area) {
-    dm::test::addParticle(slab, x, volume, normal, area);
-  };
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u01(0.0, 1.0);
   for (int i = 0; i < 10; ++i)
     for (int j = 0; j < 10; ++j) {
       const double x = 0.005 + 0.01 * i, y = 0.005 + 0.01 * j;
-      for (double z : {0.005, 0.015}) add(Vector3d(x, y, z), 1e-6, Vector3d::Zero(), 0.0);
-      add(Vector3d(x, y, 0.0), 0.0, Vector3d(0, 0, -1), 1e-4);
+      for (double z : {0.005, 0.015}) slab.append(Vector3d(x, y, z), 1e-6, Vector3d::Zero(), 0.0);
+      slab.append(Vector3d(x, y, 0.0), 0.0, Vector3d(0, 0, -1), 1e-4);
       const double u = 0.1 * u01(rng), v = 0.1 * u01(rng);
       const Vector3d slope(amplitude * k * std::sin(k * u) * std::cos(k * v),
                            amplitude * k * std::cos(k * u) * std::sin(k * v), 1.0);
-      add(Vector3d(u, v, height(u, v)), 0.0, slope.normalized(), 1e-4);
+      slab.append(Vector3d(u, v, height(u, v)), 0.0, slope.normalized(), 1e-4);
     }
   const dm::ParticleInsideTest inside(slab);
   ASSERT_NEAR(inside.spacing(), 0.01, 1e-9);

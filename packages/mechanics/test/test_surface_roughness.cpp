@@ -45,12 +45,8 @@ core::ParticleCloud sphereSurface(double R, int count) {
   const double area = 4 * kPi * R * R / count;
   for (int i = 0; i < count; ++i) {
     const Eigen::Vector3d n = Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized();
-    cloud.positions.push_back(R * n);
-    cloud.normals.push_back(n);
-    cloud.areas.push_back(area);
-    cloud.volumes.push_back(0.0);
+    cloud.append(R * n, 0.0, n, area);
   }
-  cloud.colors.resize(cloud.size());
   return cloud;
 }
 

@@ -22,6 +22,8 @@ struct ParticleCloud {
 
   std::size_t size() const { return positions.size(); }
   void resize(std::size_t n);
+  /// Appends one grey particle: interior ones pass a zero normal and area 0, surface ones volume 0.
+  void append(const Eigen::Vector3d& position, double volume, const Eigen::Vector3d& normal, double area);
   bool isSurface(std::size_t i) const { return areas[i] > 0.0; }
   /// Throws core::Error when field lengths differ or a value is not finite.
   void validate() const;
