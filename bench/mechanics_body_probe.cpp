@@ -2,8 +2,10 @@
 // extraction), against that surface and against the FEM reference's CGAL mesh of it (issue 13,
 // item 2: the NeRF rows' energy errors). Per cloud: the particles' volume and area sums, the grid
 // cell the sizing rules give and which rule set it, the cell quadrature's raw volume and second
-// moments, the inside test's misclassified volume, the loads' resultants and how much of a torque
-// the sides carry, and the held face's plane against the FEM's held nodes. No solve: each figure
+// moments (on the T-bar also its stem's polar moment about z, the twist's axis), the inside test's
+// misclassified volume, the loads' resultants, how much of a torque the sides carry and where each
+// load's patch acts (the T-bar couple's two arms, DEM and FEM), and the held face's plane against the
+// FEM's held nodes. No solve: each figure
 // isolates one ingredient of the discrete problem (docs/mechanics_matrix_nerf_cuboid.md, "Why the
 // energy still misses 1 %").
 //
@@ -88,6 +90,21 @@ void printAgainst(const char* what, const Moments& m, const Moments& surface) {
               100 * (m.volume / surface.volume - 1), 100 * (polar(m) / polar(surface) - 1));
 }
 
+// The T-bar twists its stem about z, which the x-axis polar moment above does not see: the stem's
+// (z 10 .. 230 mm, away from the clamp and the junction) volume and polar moment about its own z axis,
+// from the weights Newton integrates. Compare clouds on the same grid cell: the cut cells' points differ.
+void printStemTorsion(const dm::CellQuadrature& q) {
+  double v = 0.0, j = 0.0;
+  Eigen::Vector2d c = Eigen::Vector2d::Zero();
+  const auto inStem = [](const Vector3d& x) { return x(2) >= 0.01 && x(2) <= 0.23; };
+  for (std::size_t p = 0; p < q.points.size(); ++p)
+    if (inStem(q.points[p])) v += q.weights[p], c += q.weights[p] * q.points[p].head<2>();
+  c /= v;
+  for (std::size_t p = 0; p < q.points.size(); ++p)
+    if (inStem(q.points[p])) j += q.weights[p] * (q.points[p].head<2>() - c).squaredNorm();
+  std::printf("    stem (z 10 .. 230 mm): volume %.7g m^3, polar moment about z %.7g m^5\n", v, j);
+}
+
 // The grid DemSolver builds for this cloud (dem_solver.cpp): the resolved cell over the cloud's box
 // with half a spacing of margin. Prints each sizing rule's candidate so the binding one shows.
 dm::BsplineGrid demGrid(const core::ParticleCloud& cloud, const dm::DemConfig& config) {
@@ -159,7 +176,7 @@ void printMeshLoads(const core::Scenario& scenario, const dm::TetMesh& tets) {
       forces.push_back(weights[q] * t.at(points[q]));
       moment += points[q].cross(forces.back());
     }
-    printTorqueShare("loads (FEM)", points, forces);
+    printTorqueShare(("load " + load.name + " (FEM)").c_str(), points, forces);
   }
   std::printf("    loads (FEM): M (%.5g %.5g %.5g) N m about the origin\n", moment(0), moment(1), moment(2));
 }
@@ -180,6 +197,15 @@ void printLoads(const core::Scenario& scenario, const core::ParticleCloud& cloud
               loads.points.size(), force(0), force(1), force(2), torque(0), torque(1), torque(2), 1e3 * centroid(0),
               1e3 * centroid(1), 1e3 * centroid(2));
   printTorqueShare("loads (DEM)", loads.points, loads.forces);
+  // Each load on its own: spreadWrench makes every patch's force and torque exact, so what the
+  // surface changes is where a patch's force acts (the T-bar's couple: the two patches' arms).
+  if (scenario.loads.size() < 2) return;
+  for (const core::Load& load : scenario.loads) {
+    core::Scenario one = scenario;
+    one.loads = {load};
+    const dm::SurfaceLoads patch = dm::surfaceLoads(one, cloud, step);
+    printTorqueShare(("load " + load.name + " (DEM)").c_str(), patch.points, patch.forces);
+  }
 }
 
 // The held face each fixture gets from the cloud: the DEM clamps this plane (clipped to the box).
@@ -235,6 +261,7 @@ void probeCloud(const core::ParticleCloud& cloud, const core::Scenario& scenario
   const double unscale = q.raw_volume / m.volume;
   raw.volume = m.volume * unscale, raw.first = m.first * unscale, raw.second = m.second * unscale;
   std::printf("    cell quadrature: %zu points\n", q.points.size());
+  if (scenario.name == "tbar_twist") printStemTorsion(q);
   printAgainst("raw (the inside test's body)", raw, surface);
   printAgainst("scaled to the particles' volume (what Newton integrates)", m, surface);
   insideFigures(cloud, inside, probe_step, surface.volume);
