@@ -218,8 +218,8 @@ void DemSolver::Impl::continueRefusedAnswer(int& iterations) {
   made_check = mlpEquilibrium(1.0);
   const MlpCheck& first = *made_check;
   if (!(first.min_J > 0) || !std::isfinite(first.energy) || first.correction <= kMlpCorrectionTolerance) return;
-  // The second check costs about the first (its basis is kept); half again for safety. At least
-  // a window of steps must fit too, at the last ones' pace (GaussNewtonStop stops before the limit).
+  // The second check costs about the first (its basis is kept); half again is kept free for it,
+  // and the steps stop before a step that would cross what is left (GaussNewtonStop).
   const double check_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (clock && control.time_limit > 0 && clock->elapsed() + 1.5 * check_seconds >= control.time_limit) return;
   const std::string ended = gauss_newton_ended;

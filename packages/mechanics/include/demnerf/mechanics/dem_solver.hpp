@@ -108,9 +108,10 @@ struct DemGaussNewtonConfig {
   /// (false)
   bool current_tangent = false;
   /// When the equilibrium check refuses an answer whose steps stopped converged (by `tolerance`)
-  /// and the solve's time limit leaves room: the steps go on from that answer until the energy
-  /// falls by less than this x |E| over `window` steps (a new cap of `steps`, the same exploit
-  /// guard), and the check, unchanged, is asked again (0: refused at once) (0)
+  /// and the solve's time limit leaves room: the steps go on from that answer (its energies'
+  /// window and damping) until the energy falls by less than this x |E| over `window` steps (a
+  /// new cap of `steps`, an exploit guard of their own), and the check, unchanged, is asked
+  /// again (0: refused at once) (0)
   double recheck_tolerance = 0.0;
 };
 
