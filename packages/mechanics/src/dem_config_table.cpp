@@ -70,6 +70,8 @@ std::vector<Field> trainingFields(DemConfig& c) {
            "draw the matrix's points systematically in proportion to their weights (false: uniformly)"),
       flag(gn, "current_tangent", c.gauss_newton.current_tangent,
            "form the matrix with the material's tangent at the current strain (false: at zero strain)"),
+      number(gn, "recheck_tolerance", c.gauss_newton.recheck_tolerance, 0, false, kInf,
+             "a converged answer the check refuses: the steps go on to this tolerance, then the check again (0: off)"),
   };
 }
 

@@ -251,8 +251,10 @@ bool dampedStep(const Tensor& G, const Tensor& grad, double& damping, Trial&& tr
 // answer is kept and checked instead of thrown away), or when the damping ran away.
 class GaussNewtonStop {
  public:
-  GaussNewtonStop(const DemGaussNewtonConfig& c, double time_limit)
-      : cap_(c.steps), window_(std::max(1, c.window)), tolerance_(c.tolerance), time_limit_(time_limit) {}
+  /// `history`: the energies of the steps this run continues (their window counts, not the cap).
+  GaussNewtonStop(const DemGaussNewtonConfig& c, double tolerance, double time_limit, std::vector<double> history)
+      : cap_(c.steps), window_(std::max(1, c.window)), tolerance_(tolerance), time_limit_(time_limit),
+        energies_(std::move(history)), before_(energies_.size()) {}
 
   void record(double energy) {
     energies_.push_back(energy);
@@ -274,14 +276,17 @@ class GaussNewtonStop {
       std::ostringstream why;
       why << "converged: the energy fell by " << windowFall() << " x |E| over the last " << window_
           << " steps, below gauss_newton.tolerance";
+      converged_ = true;
       return finish(why.str());
     }
     // A step costs about the last one; half more for the slower ones (rejected trials).
     if (time_limit_ > 0 && elapsed + 1.5 * last_step_ > time_limit_) return finish("stopped before the solve's time limit");
     return false;
   }
-  int steps() const { return static_cast<int>(energies_.size()); }
+  int steps() const { return static_cast<int>(energies_.size() - before_); }
+  const std::vector<double>& energies() const { return energies_; }
   const std::string& why() const { return why_; }
+  bool converged() const { return converged_; }
 
  private:
   bool finish(std::string why) {
@@ -290,7 +295,9 @@ class GaussNewtonStop {
   }
   int cap_, window_;
   double tolerance_, time_limit_, last_step_ = 0.0;
+  bool converged_ = false;
   std::vector<double> energies_;
+  std::size_t before_;
   std::chrono::steady_clock::time_point step_start_ = std::chrono::steady_clock::now();
   std::string why_;
 };
@@ -303,7 +310,7 @@ bool DemSolver::Impl::gaussNewtonAvailable() const {
 
 // Levenberg-Marquardt Gauss-Newton steps on the cell quadrature until GaussNewtonStop says so: the
 // damping mu falls after a step the model predicted well and rises after a poor or rejected one.
-void DemSolver::Impl::gaussNewton(double scale, int& iterations) {
+void DemSolver::Impl::gaussNewton(double scale, int& iterations, double tolerance, double reserve, bool resume) {
   if (!gaussNewtonAvailable())
     throw core::Error("dem.gauss_newton needs the MLP alone through the fused kernel (float32, tanh, no feature "
                       "grid, not parametric), boundary.kind exact and lbfgs.cell_spacings > 0");
@@ -318,14 +325,17 @@ void DemSolver::Impl::gaussNewton(double scale, int& iterations) {
   metric.load_scale = scale;
   metric.current = config.gauss_newton.current_tangent && !decoupled;
   MetricDraw metric_draw(draw.vol, m, config.gauss_newton.spread);
-  double damping = config.gauss_newton.damping;
+  double damping = resume ? gauss_newton_resume.damping : config.gauss_newton.damping;
   // Every step is sampled: a step moves the field as much as many L-BFGS evaluations, and the
   // guard's energy (~1 fused evaluation) is small against a step. Its verdict supersedes the
   // L-BFGS's: these steps start from that state.
   ExploitGuard watchman(1, "Gauss-Newton steps");
   exploit_kept.clear();
   gauss_newton_ended.clear();
-  GaussNewtonStop stop(config.gauss_newton, clock ? control.time_limit : 0.0);
+  gauss_newton_converged = false;
+  GaussNewtonStop stop(config.gauss_newton, tolerance,
+                       clock && control.time_limit > 0 ? std::max(control.time_limit - reserve, 1e-9) : 0.0,
+                       resume ? gauss_newton_resume.energies : std::vector<double>{});
   while (!stop.done(damping < kMaxDamping, clock ? clock->elapsed() : 0.0)) {
     balanceOutput(scale);  // a no-op once balanced; GN alone starts at the a-priori amplitude
     if (watchman.due()) {
@@ -360,6 +370,8 @@ void DemSolver::Impl::gaussNewton(double scale, int& iterations) {
     tick("gauss_newton", scale, iterations, accepted, std::numeric_limits<double>::quiet_NaN());
   }
   gauss_newton_ended = std::to_string(stop.steps()) + " Gauss-Newton steps (" + stop.why() + ")";
+  gauss_newton_converged = stop.converged();
+  gauss_newton_resume = {stop.energies(), damping};
   if (config.verbose) std::cerr << "dem: " << gauss_newton_ended << "\n";
   keepGuardedBest(watchman, scale);
 }

@@ -138,7 +138,10 @@ struct DemSolver::Impl {
   JitterDraw cellQuadratureDraw(double shift);
   // dem_gauss_newton.cpp: DemConfig::gauss_newton's steps on the cell quadrature (fused kernel).
   bool gaussNewtonAvailable() const;
-  void gaussNewton(double scale, int& iterations);
+  /// Until `tolerance` (DemGaussNewtonConfig) says converged, or a cap; `reserve`: seconds kept
+  /// free before the solve's time limit (a check still to come); `resume`: on from the last run's
+  /// energies and damping (gauss_newton_resume), as if its tolerance had been this one.
+  void gaussNewton(double scale, int& iterations, double tolerance, double reserve = 0.0, bool resume = false);
   void rescaleOutput(double scale);
   /// The parameters and, last, the output and energy scales: balanceOutput() moves the output's
   /// amplitude between the last layer and out_scale, so weights restored without the scale they
@@ -220,6 +223,8 @@ struct DemSolver::Impl {
   void solveOutputLayer(double scale);
   bool train(double scale, int& iterations, DemReport& report);
   bool trainParametric(int& iterations);
+  // dem_mlp_check.cpp: gauss_newton.recheck_tolerance's continuation, run on the solve's clock.
+  void continueRefusedAnswer(int& iterations);
 
  private:
   // The parts of the above (same files).
@@ -237,8 +242,16 @@ struct DemSolver::Impl {
   // The exploit guard's verdict on the last L-BFGS run: empty, or why it kept an earlier state
   // (that state is then no converged minimum, and checkMlpAnswer refuses it).
   std::string exploit_kept;
-  // How the last Gauss-Newton steps ended ("112 (converged: ...)"), for the check's advice.
+  // How the last Gauss-Newton steps ended ("112 (converged: ...)"), for the check's advice, and
+  // whether by their tolerance (the only ending recheck_tolerance continues from).
   std::string gauss_newton_ended;
+  bool gauss_newton_converged = false;
+  struct GaussNewtonResume {
+    std::vector<double> energies;  // every step's energy, for the stop's window
+    double damping = 0.0;
+  } gauss_newton_resume;
+  // The check continueRefusedAnswer made, which verifyMlpAnswer uses unless the answer moved since.
+  std::optional<MlpCheck> made_check;
 };
 
 /// Row-major tensor (rows x cols) -> Eigen, in double.

@@ -171,7 +171,7 @@ bool DemSolver::Impl::train(double scale, int& iterations, DemReport& report) {
       trainWithSampledLbfgs(scale, iterations);
     else polishWithLbfgs(scale, iterations, report);
   }
-  if (config.gauss_newton.steps > 0) gaussNewton(scale, iterations);
+  if (config.gauss_newton.steps > 0) gaussNewton(scale, iterations, config.gauss_newton.tolerance);
   torch::NoGradGuard guard;
   double jmin = 0;
   const Tensor l = loss(scale, nullptr, &jmin);

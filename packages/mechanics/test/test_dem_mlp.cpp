@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <string>
 #include <vector>
 
 #include "demnerf/core/scenario.hpp"
@@ -179,6 +180,32 @@ TEST(DemMlp, GaussNewtonStopsOnceConvergedAndNotBefore) {
   EXPECT_LT(rule, all) << "the default rule did not stop before the steps without it";
   EXPECT_NEAR(tip_rule, tip_all, 0.005 * std::abs(tip_all)) << "the default rule stopped short";
   EXPECT_GT(std::abs(tip_loose - tip_all), 2 * std::abs(tip_rule - tip_all)) << "a loose rule is not measurably short";
+}
+
+// gauss_newton.recheck_tolerance: an answer the check refuses after steps that a loose tolerance
+// (1e-2) stopped goes on from where it is to the tighter one and is checked again, and passes; the
+// same solve without it is refused by the same check.
+TEST(DemMlp, GaussNewtonContinuesARefusedConvergedAnswerAndChecksItAgain) {
+  const core::ParticleCloud cloud = dm::makeBoxParticles(Vector3d(0, 0, 0), Vector3d(4, 1, 1), Eigen::Vector3i(12, 3, 3));
+  const auto solve = [&](double recheck, std::string& refusal) {
+    dm::DemConfig config = smallMlp(0, 150);
+    config.gauss_newton.tolerance = 1e-2;
+    config.gauss_newton.recheck_tolerance = recheck;
+    dm::DemSolver dem(cloud, beam3d(), config);
+    try {
+      dem.solve();
+    } catch (const dm::SolveError& e) {
+      refusal = e.what();
+    }
+    return dem.predict({Vector3d(4, 0.5, 0.5)})[0].y();
+  };
+  std::string refused, continued;
+  const double tip_refused = solve(0.0, refused), tip_continued = solve(2e-3, continued);
+  std::printf("Beam3D 12x3x3, tolerance 1e-2: tip %.5f alone, %.5f continued to 2e-3 (FEM -1.2054)\n", tip_refused,
+              tip_continued);
+  EXPECT_NE(refused.find("Newton correction"), std::string::npos) << "not refused for its correction: " << refused;
+  EXPECT_TRUE(continued.empty()) << continued;
+  EXPECT_NEAR(tip_continued, -1.2054, 0.05 * 1.2054);
 }
 
 // The solve's time limit is the steps' other cap: they stop before a step that would cross it, and

@@ -62,6 +62,8 @@ TEST(SolverConfig, GaussNewtonFileTurnsTheMlpPresetIntoGaussNewtonSteps) {
   EXPECT_EQ(o.dem.gauss_newton.steps, 150);  // a cap: the steps stop once converged
   EXPECT_DOUBLE_EQ(o.dem.gauss_newton.tolerance, 2e-3);
   EXPECT_EQ(o.dem.gauss_newton.window, 10);
+  EXPECT_DOUBLE_EQ(o.dem.gauss_newton.recheck_tolerance, 5e-4);  // a refused converged answer goes on
+  EXPECT_EQ(dm::SimulateOptions{}.dem.gauss_newton.recheck_tolerance, 0.0);
   EXPECT_EQ(o.dem.gauss_newton.sample, 500);
   EXPECT_TRUE(o.dem.gauss_newton.spread);
   EXPECT_TRUE(o.dem.gauss_newton.current_tangent);
@@ -80,6 +82,7 @@ TEST(SolverConfig, WrittenSettingsReadBackTheSame) {
   options.dem.adam.jitter_band = 2.5;
   options.dem.lbfgs.tolerance = 3e-11;
   options.dem.lbfgs.cell_boundary_levels = 2;
+  options.dem.gauss_newton.recheck_tolerance = 1e-4;
   options.dem.network.seed = -7;
   options.fem.linear_solver = dm::FemConfig::LinearSolver::kConjugateGradient;
   options.fem.ordering = dm::FemConfig::Ordering::kNestedDissection;
@@ -94,6 +97,7 @@ TEST(SolverConfig, WrittenSettingsReadBackTheSame) {
   EXPECT_EQ(back.dem.boundary.kind, dm::DemConfig::Boundary::kPenalty);
   EXPECT_EQ(back.dem.lbfgs.tolerance, 3e-11);
   EXPECT_EQ(back.dem.lbfgs.cell_boundary_levels, 2);
+  EXPECT_EQ(back.dem.gauss_newton.recheck_tolerance, 1e-4);
   EXPECT_EQ(back.dem.network.seed, -7);
   EXPECT_EQ(back.fem.linear_solver, dm::FemConfig::LinearSolver::kConjugateGradient);
   EXPECT_EQ(back.pinn.activation, "sin");

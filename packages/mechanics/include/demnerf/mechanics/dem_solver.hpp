@@ -107,6 +107,12 @@ struct DemGaussNewtonConfig {
   /// zero strain) instead of at zero strain: what the self-weight block's compressed base needs
   /// (false)
   bool current_tangent = false;
+  /// When the equilibrium check refuses an answer whose steps stopped converged (by `tolerance`)
+  /// and the solve's time limit leaves room: the steps go on from that answer (its energies'
+  /// window and damping) until the energy falls by less than this x |E| over `window` steps (a
+  /// new cap of `steps`, an exploit guard of their own), and the check, unchanged, is asked
+  /// again (0: refused at once) (0)
+  double recheck_tolerance = 0.0;
 };
 
 /// The B-spline feature grid u = g + D o c (z(X) + N(X) C), C solved by Newton (exact boundary,
