@@ -278,7 +278,7 @@ DemReport DemSolver::solve() {
     throw SolveError(m.grid && m.last_grid.min_J > 0 ? SolveFailure::kNotConverged : SolveFailure::kInverted,
                      m.grid ? std::string(e.what()) + m.gridFailureAdvice() : std::string(e.what()));
   }
-  if (!m.grid) m.continueRefusedAnswer(report.iterations);  // on the solve's clock: within its limit
+  m.continueRefusedAnswer(report.iterations);  // MLP alone (a no-op otherwise), on the solve's clock: within its limit
   m.clock.reset();
   m.fraction = 1.0;
   report.output_scale = m.out_scale;

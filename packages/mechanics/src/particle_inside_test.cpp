@@ -87,6 +87,11 @@ std::size_t ParticleInsideTest::roughParticles() const {
   return static_cast<std::size_t>(std::count(rough_.begin(), rough_.end(), 1));
 }
 
+double ParticleInsideTest::roughShare() const {
+  const auto surface = std::count(surface_.begin(), surface_.end(), 1);
+  return surface == 0 ? 0.0 : static_cast<double>(roughParticles()) / static_cast<double>(surface);
+}
+
 long ParticleInsideTest::bucketIndex(const Eigen::Vector3i& c) const {
   if ((c.array() < 0).any() || (c.array() >= dims_.array()).any()) return -1;
   return (static_cast<long>(c(2)) * dims_(1) + c(1)) * dims_(0) + c(0);

@@ -22,6 +22,13 @@ bool particlesDescribeSurface(const core::ParticleCloud& cloud) {
 }
 
 core::TriangleMesh surfaceOfParticles(const core::ParticleCloud& cloud, double step, bool sharpen) {
+  ParticleInsideTest inside(cloud);
+  inside.setBlendRoughFaces(false);  // the nearest plane: see setBlendRoughFaces
+  return surfaceOfParticles(cloud, inside, step, sharpen);
+}
+
+core::TriangleMesh surfaceOfParticles(const core::ParticleCloud& cloud, const ParticleInsideTest& inside, double step,
+                                      bool sharpen) {
   if (!(step > 0.0) || !std::isfinite(step))
     throw core::Error("particle surface: the sampling step must be a positive length, got " + std::to_string(step));
   if (!particlesDescribeSurface(cloud))
@@ -48,8 +55,6 @@ core::TriangleMesh surfaceOfParticles(const core::ParticleCloud& cloud, double s
   field.dims = (intervals.array() + 6.0).cast<int>().matrix();
   field.values.resize(static_cast<std::size_t>(field.dims.prod()));
   // Positive inside: the iso-surface's "density" is the depth below the surface.
-  ParticleInsideTest inside(cloud);
-  inside.setBlendRoughFaces(false);  // the nearest plane: see setBlendRoughFaces
   for (int k = 0; k < field.dims.z(); ++k)
     for (int j = 0; j < field.dims.y(); ++j)
       for (int i = 0; i < field.dims.x(); ++i)

@@ -37,8 +37,15 @@ const char* solverName(SolverChoice solver) {
 namespace {
 
 /// A surface of particles with more than this share of rough particles is bumpy or curved
-/// (roughSurfaceShare): its FEM mesh follows it only as closely as the particles place it.
+/// (ParticleInsideTest::roughShare): its FEM mesh follows it only as closely as the particles place it.
 constexpr double kRoughSurfaceShare = 0.5;
+
+/// The surface a cloud's surface particles describe (particleSurface), and whether most of them are
+/// rough, both from one inside test.
+struct ParticlesSurface {
+  core::TriangleMesh mesh;
+  bool rough = false;
+};
 
 /// The voxel (or CGAL) cell of an automatic FEM mesh: from the body and the accuracy asked for,
 /// not from how finely it was sampled. Voxels of particles (a cloud whose particles do not place
@@ -81,15 +88,6 @@ void reportMesh(const TetMesh& mesh, SolveClock& clock) {
   clock.report(meshed, true);
 }
 
-/// The share of the surface particles whose face is not flat around them (ParticleInsideTest's
-/// rough particles): nearly all on a NeRF extraction or a scan, none on a sampled flat-faced body.
-double roughSurfaceShare(const core::ParticleCloud& cloud) {
-  std::size_t surface = 0;
-  for (std::size_t i = 0; i < cloud.size(); ++i)
-    if (cloud.areas[i] > 0.0 && cloud.normals[i].squaredNorm() > 0.0) ++surface;
-  return surface == 0 ? 0.0 : static_cast<double>(ParticleInsideTest(cloud).roughParticles()) / surface;
-}
-
 /// CGAL's mesh of the surface. Mesh_3 follows it to within a tenth of the cell. On a rough surface
 /// of particles that is their sampling's kinks wherever the particles are coarser than the cell:
 /// the bumps between their planes say where the surface is only to about a tenth of their spacing.
@@ -99,14 +97,15 @@ double roughSurfaceShare(const core::ParticleCloud& cloud) {
 /// 8 s, energy 0.3 % apart. A flat-faced body's particles place its faces exactly and its
 /// sharpened edges to the sampling step, so it keeps a tenth of the cell (a sampled block bent by
 /// an end load went 0.8 -> 3.4 % from its own surface's energy at a tenth of the spacing).
+/// `of_particles`: the particles' own surface (null: a given one).
 TetMesh cgalFemMesh(const core::ParticleCloud& cloud, const core::Scenario& scenario, const core::TriangleMesh& surface,
-                    bool of_particles, const VoxelMeshConfig& voxel) {
+                    const ParticlesSurface* of_particles, const VoxelMeshConfig& voxel) {
   CgalMeshConfig config;
   config.cell = voxel.cell;
   config.order = voxel.order;
   config.protect_creases = !of_particles;
   config.cut_planes = heldVolumePlanes(scenario, surface);
-  if (of_particles && roughSurfaceShare(cloud) > kRoughSurfaceShare)
+  if (of_particles && of_particles->rough)
     config.facet_distance = std::max(voxel.cell, medianParticleEdge(cloud)) / 10.0;
   return cgalMeshFromSurface(surface, config);
 }
@@ -115,7 +114,7 @@ TetMesh cgalFemMesh(const core::ParticleCloud& cloud, const core::Scenario& scen
 /// specks of a reconstructed body that touch no fixture are dropped (they would make the
 /// stiffness singular).
 TetMesh femMesh(const core::ParticleCloud& cloud, const core::Scenario& scenario, const core::TriangleMesh* surface,
-                bool of_particles, const VoxelMeshConfig& voxel, bool cgal) {
+                const ParticlesSurface* of_particles, const VoxelMeshConfig& voxel, bool cgal) {
   TetMesh mesh;
   if (cgal) {
     mesh = cgalFemMesh(cloud, scenario, *surface, of_particles, voxel);
@@ -153,26 +152,28 @@ void solveDem(const core::ParticleCloud& cloud, const core::Scenario& scenario, 
 /// fill were ~40 mm on a Poisson cloud of the 0.125 m test cuboid (1.7x the energy of the body's
 /// mesh) and left random clouds of the T-bar 37 % too soft (docs/dem_feature_grid.md, "The FEM on
 /// a cloud without its surface").
-std::optional<core::TriangleMesh> particleSurface(const core::ParticleCloud& cloud, const VoxelMeshConfig& voxel) {
+std::optional<ParticlesSurface> particleSurface(const core::ParticleCloud& cloud, const VoxelMeshConfig& voxel) {
   if (!particlesDescribeSurface(cloud)) return std::nullopt;
   const MeshSizeRule rule{voxel.elements_across, voxel.max_dofs, voxel.order};
   const double cell = voxel.cell > 0.0 ? voxel.cell : automaticCell(measureParticles(cloud), rule);
-  return surfaceOfParticles(cloud, cell / 3.0);
+  ParticleInsideTest inside(cloud);
+  inside.setBlendRoughFaces(false);  // the nearest plane: see setBlendRoughFaces
+  return ParticlesSurface{surfaceOfParticles(cloud, inside, cell / 3.0), inside.roughShare() > kRoughSurfaceShare};
 }
 
 void solveFem(const core::ParticleCloud& cloud, const core::Scenario& scenario, const SimulateOptions& options,
               SimulationOutcome& out) {
   SolveClock clock(options.control, "fem");
   const bool cgal_mesher = options.mesher == SimulateOptions::Mesher::kCgal;
-  const std::optional<core::TriangleMesh> of_particles =
+  const std::optional<ParticlesSurface> of_particles =
       options.surface || !cgal_mesher ? std::nullopt : particleSurface(cloud, options.voxel);
-  const core::TriangleMesh* surface = options.surface ? &*options.surface : of_particles ? &*of_particles : nullptr;
+  const core::TriangleMesh* surface = options.surface ? &*options.surface : of_particles ? &of_particles->mesh : nullptr;
   const bool cgal = surface && cgal_mesher;
   // Measured once: a reconstructed surface has 10^5 triangles.
   const BodyMeasures body = surface ? measureSurface(*surface) : measureParticles(cloud);
   const VoxelMeshConfig voxel = femVoxels(cloud, surface, body, options.voxel);
   reportMeshing(body.volume, of_particles.has_value(), voxel, cgal, clock);
-  TetMesh mesh = femMesh(cloud, scenario, surface, of_particles.has_value(), voxel, cgal);
+  TetMesh mesh = femMesh(cloud, scenario, surface, of_particles ? &*of_particles : nullptr, voxel, cgal);
   out.mesh_nodes = static_cast<int>(mesh.nodes.size());
   out.mesh_elements = static_cast<int>(mesh.elements.size());
   out.mesh_cell = voxel.cell;

@@ -201,6 +201,13 @@ TEST(ParticleInsideTest, ABumpyFacesBlendedPlanesFollowItsBumps) {
     }
   std::cout << "misclassified layer " << 1e3 * wrong / area << " mm\n";
   EXPECT_LT(wrong / area, 0.00025);
+  // The FEM meshes a surface whose particles are mostly rough only as closely as they place it
+  // (simulate.cpp): the bumpy top is rough, the flat bottom not, and a flat-faced box has none.
+  std::cout << "rough share " << inside.roughShare() << "\n";
+  EXPECT_GT(inside.roughShare(), 0.3);
+  EXPECT_LT(inside.roughShare(), 0.7);
+  EXPECT_EQ(dm::ParticleInsideTest(dm::test::randomSurfaceBox(Vector3d::Zero(), Vector3d(0.2, 0.1, 0.1), 0.012, 3)).roughShare(),
+            0.0);
 }
 
 // Points far outside the particles' bucket table along x only, in its last row (the MLP's shifted

@@ -55,6 +55,9 @@ class ParticleInsideTest {
   /// Surface particles whose face is not flat around them (same-face neighbours off their plane):
   /// their distances blend the face's planes. None on an exact (flat-faced) body.
   std::size_t roughParticles() const;
+  /// roughParticles() over the surface particles (0 without any): nearly 1 on a NeRF extraction or
+  /// a scan, 0 on a sampled flat-faced body.
+  double roughShare() const;
   /// Surface particles of another face (normals more than 60 degrees apart) join the nearest one's
   /// plane when they are at most this many spacings farther from the point (default 1). Two
   /// spacings bridge a random cloud's gaps at its edges (surfaceLoads() uses them); on a NeRF

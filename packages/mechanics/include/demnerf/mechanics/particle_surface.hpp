@@ -8,6 +8,8 @@
 
 namespace demnerf::mechanics {
 
+class ParticleInsideTest;
+
 /// Whether the cloud's surface particles lie on the surface, as a sampler leaves them (area > 0, a
 /// normal, no volume), so that they place it. False without surface particles, or when one carries
 /// no normal or a cell of volume (a lattice whose every particle is a cell, as the node tests'
@@ -20,5 +22,11 @@ bool particlesDescribeSurface(const core::ParticleCloud& cloud);
 /// particles must lie on its surface (particlesDescribeSurface); throws core::Error otherwise, for
 /// a step that is not a positive length or gives more than 2e7 samples, or when no surface results.
 core::TriangleMesh surfaceOfParticles(const core::ParticleCloud& cloud, double step, bool sharpen = true);
+
+/// The same with the cloud's inside test made by the caller, who also asks it other things (the
+/// FEM: how rough the surface is). `inside` must be `cloud`'s, with setBlendRoughFaces(false) (the
+/// nearest plane, as the overload above sets).
+core::TriangleMesh surfaceOfParticles(const core::ParticleCloud& cloud, const ParticleInsideTest& inside, double step,
+                                      bool sharpen = true);
 
 }  // namespace demnerf::mechanics
