@@ -221,8 +221,17 @@ void DemSolver::Impl::continueRefusedAnswer(int& iterations) {
   // The second check costs about the first (its basis is kept); half again is kept free for it,
   // and the steps stop before a step that would cross what is left (GaussNewtonStop).
   const double check_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  if (clock && control.time_limit > 0 && clock->elapsed() + 1.5 * check_seconds >= control.time_limit) return;
   const std::string ended = gauss_newton_ended;
+  // When the limit is what keeps the answer from going on, the refusal's advice says so: more steps
+  // or a lower tolerance would not help, more time would.
+  std::ostringstream short_of_time;
+  short_of_time << ended << ", refused by the check at a correction of " << 100 * first.correction
+                << " %, with too little of the solve's time limit left to go on to gauss_newton.recheck_tolerance"
+                << " (raise --time-limit or ~solve_time_limit)";
+  if (clock && control.time_limit > 0 && clock->elapsed() + 1.5 * check_seconds >= control.time_limit) {
+    gauss_newton_ended = short_of_time.str();
+    return;
+  }
   const std::vector<Tensor> refused = snapshot();
   if (config.verbose)
     std::cerr << "dem: the check refused a converged answer (correction " << 100 * first.correction
@@ -233,6 +242,7 @@ void DemSolver::Impl::continueRefusedAnswer(int& iterations) {
     restore(refused);  // the limit came first after all: the refused answer and its check stand
     gauss_newton_ended = ended;
     if (e.failure() != SolveFailure::kTimeLimit) throw;
+    gauss_newton_ended = short_of_time.str();
     return;
   }
   std::ostringstream what;
