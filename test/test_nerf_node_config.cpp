@@ -48,6 +48,7 @@ void expectSameSurface(const dem_nerf::SurfaceConfig& a, const dem_nerf::Surface
   EXPECT_EQ(a.mesh.opacity, b.mesh.opacity);
   EXPECT_EQ(a.mesh.threshold, b.mesh.threshold);
   EXPECT_EQ(a.mesh.simplification.max_faces, b.mesh.simplification.max_faces);
+  EXPECT_EQ(a.mesh.repair.smoothing_iterations, b.mesh.repair.smoothing_iterations);
   EXPECT_EQ(a.isolation.max_second_piece_fraction, b.isolation.max_second_piece_fraction);
   EXPECT_EQ(a.mesh.solid.radius, b.mesh.solid.radius);
   EXPECT_EQ(a.mesh.solid.behind, b.mesh.solid.behind);
@@ -73,16 +74,17 @@ TEST(NerfNodeConfig, ExtractionNamespaceIsDemnerfExtractsFlags) {
   const NerfNodeConfig config = NerfNodeConfig::fromParameters(ParameterMap{
       {"extraction", keys({{"resolution", 128}, {"surface", "density"}, {"threshold", 5},
                            {"box", list({-0.1, -0.2, 0.0, 0.1, 0.2, 0.3})}, {"max_second_piece", 0.3},
-                           {"solid_radius", 0.08}, {"solid_behind", list({0.9, -0.4, 0.0})}})}});
+                           {"solid_radius", 0.08}, {"solid_behind", list({0.9, -0.4, 0.0})}, {"smoothing", 3}})}});
   const demnerf::cli::Arguments flags({"--resolution", "128", "--threshold", "5", "--box", "-0.1,-0.2,0,0.1,0.2,0.3",
                                        "--max-second-piece", "0.3", "--solid-radius", "0.08", "--solid-behind",
-                                       "0.9,-0.4,0"},
+                                       "0.9,-0.4,0", "--smooth", "3"},
                                       {});
   expectSameSurface(config.extraction, demnerf::cli::surfaceFlags(flags));
   ASSERT_TRUE(config.extraction.box.has_value());
   EXPECT_DOUBLE_EQ(config.extraction.box->max().z(), 0.3);
   EXPECT_EQ(config.extraction.mesh.solid.radius, 0.08);
   EXPECT_EQ(config.extraction.mesh.solid.behind, Eigen::Vector3d(0.9, -0.4, 0.0));
+  EXPECT_EQ(config.extraction.mesh.repair.smoothing_iterations, 3);
 }
 
 TEST(NerfNodeConfig, SolidViewsCarvesWithTheKeyframesLater) {

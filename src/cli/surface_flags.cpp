@@ -86,7 +86,7 @@ dem_nerf::SurfaceConfig surfaceFlags(const Arguments& arguments) {
   const int max_faces = arguments.integer("max-faces", 0);
   if (max_faces < 0) throw UsageError("option --max-faces expects a count >= 0 (0: keep every face)");
   config.mesh.simplification.max_faces = static_cast<std::size_t>(max_faces);
-  config.mesh.repair.smoothing_iterations = arguments.integer("smooth", 0);
+  config.mesh.repair.smoothing_iterations = arguments.integer("smooth", config.mesh.repair.smoothing_iterations);
   if (config.mesh.repair.smoothing_iterations < 0) throw UsageError("option --smooth expects a count >= 0");
   if (arguments.has("box")) {
     try {
@@ -110,7 +110,8 @@ std::string surfaceFlagsUsage() {
   std::ostringstream text;
   text << "[--resolution " << defaults.resolution << " (cells along the longest side)] [--surface opacity|density] "
        << "[--opacity " << defaults.mesh.opacity << "] [--threshold " << defaults.mesh.threshold
-       << " (density surface)] [--max-faces 0 (0: keep all)] [--smooth 0] "
+       << " (density surface)] [--max-faces 0 (0: keep all)] [--smooth " << defaults.mesh.repair.smoothing_iterations
+       << " (Taubin passes)] "
        << "[--box xmin,ymin,zmin,xmax,ymax,zmax (the scene's frame: mesh only the object inside, its largest piece)] "
        << "[--max-second-piece " << defaults.isolation.max_second_piece_fraction
        << " (refuse a box whose second piece has this fraction of the largest's size)] "

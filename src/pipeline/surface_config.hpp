@@ -38,6 +38,10 @@ struct SurfaceConfig {
     mesh.surface = demnerf::geometry::SurfaceDefinition::kOpacity;
     mesh.opacity = 0.15;
     mesh.simplification.fast = true;  // a face budget, when set, collapses shortest edges first
+    // No Taubin passes (mesh.repair.smoothing_iterations 0): on the NeRF T-bar and cuboid, 2-100
+    // passes move the Chamfer distance to the true body by under 0.04 mm and leave the bumps the
+    // DEM finds stiff (their wavelengths pass the filter); docs/mechanics_matrix_nerf.md,
+    // "A smoothed extraction".
     return mesh;
   }
 };
