@@ -43,9 +43,10 @@ constexpr double kMaxDamping = 1e8;
 
 // The metric's rows A at the drawn points x (their weights w, the lift's four fields there), [rows,
 // parameters] float: by hand (strain_jacobian.hpp), each point forward once and backward once per
-// row. The autograd rows cost 0.46 s a step on the NeRF T-bar, as much as the rest of the step.
+// row, on `threads` (0: every core). The autograd rows cost 0.46 s a step on the NeRF T-bar, as
+// much as the rest of the step.
 Tensor strainRows(const DisplacementMlp& net, const Tensor& x, const Tensor (&lift)[4], const Tensor& w,
-                  const strain_rows::Metric& metric) {
+                  const strain_rows::Metric& metric, int threads) {
   mlp_kernel::Network nn;
   nn.depth = static_cast<int>(net.weights().size()) - 1;
   nn.width = static_cast<int>(net.weights()[0].size(0));
@@ -65,7 +66,8 @@ Tensor strainRows(const DisplacementMlp& net, const Tensor& x, const Tensor (&li
                                   g.data_ptr<float>(), gg.data_ptr<float>(), D.data_ptr<float>(), gD.data_ptr<float>()};
   Tensor rows = torch::empty({xs.size(0) * strain_rows::rowsPerPoint(metric), strain_rows::parameterCount(nn)},
                              torch::kFloat32);
-  strain_rows::strainJacobianRows(nn, metric, points, rows.data_ptr<float>(), torch_support::allCores());
+  strain_rows::strainJacobianRows(nn, metric, points, rows.data_ptr<float>(),
+                                  threads > 0 ? threads : torch_support::allCores());
   return rows;
 }
 
@@ -91,8 +93,9 @@ Tensor gramian(const Tensor& A) {
 // dense work is ssyrk and the damped Cholesky (OpenBLAS's own threads), its energies the fused
 // kernel's and its metric rows strain_jacobian's (std::threads of their own). Torch's remaining
 // operations are a few copies of G. With torch on two threads its OpenMP workers spun between
-// them, and OpenBLAS's after every call: 40 steps on the NeRF T-bar took 15 s wall instead of
-// 11.5 s on the quiet machine, 32 s instead of 20 s beside another busy process. Restored after.
+// them, and OpenBLAS's after every call (parkBlasThreads): 40 steps on the NeRF T-bar took 15 s
+// wall on the quiet machine against 11.5 s with both kinds of worker made to sleep, and 32 s
+// beside another busy process against 20 s with this and parkBlasThreads. Restored after.
 class DenseAlgebraThreads {
  public:
   explicit DenseAlgebraThreads(int pinned) : before_(at::get_num_threads()) {
@@ -340,7 +343,7 @@ void DemSolver::Impl::gaussNewton(double scale, int& iterations, double toleranc
     const auto [idx, w] = metric_draw.next(rng);
     const Tensor lift[4] = {draw.lift[0].index_select(0, idx), draw.lift[1].index_select(0, idx),
                             draw.lift[2].index_select(0, idx), draw.lift[3].index_select(0, idx)};
-    const Tensor A = strainRows(net, draw.x.index_select(0, idx), lift, w, metric);
+    const Tensor A = strainRows(net, draw.x.index_select(0, idx), lift, w, metric, config.threads);
     phases.lap(StepPhases::kRows);
     const Tensor G = gramian(A);
     phases.lap(StepPhases::kGram);
