@@ -9,11 +9,13 @@
 // are the stress term S : d2E and the network's own curvature.
 // The dead loads are linear in u and add nothing. The gradient and every trial energy are the
 // fused kernel's on the whole cell quadrature; G is formed on a random draw of its Gauss points.
+#include <dlfcn.h>
 #include <torch/torch.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <ctime>
 #include <iostream>
 #include <limits>
 #include <numeric>
@@ -24,8 +26,11 @@
 #include <vector>
 
 #include "demnerf/core/error.hpp"
+#include "demnerf/mechanics/process_settings.hpp"
 #include "dem_solver_impl.hpp"
 #include "exploit_guard.hpp"
+#include "mlp_energy_kernel.hpp"
+#include "strain_jacobian.hpp"
 
 namespace demnerf::mechanics {
 
@@ -36,114 +41,68 @@ namespace {
 // Past this damping (relative to G's mean diagonal) the step is a tiny gradient step: stop.
 constexpr double kMaxDamping = 1e8;
 
-struct StrainMetric {
-  double mu = 0.0, lambda = 0.0;  // C = lambda I (x) I + 2 mu I on symmetric strains
-  double load_scale = 1.0, out_scale = 1.0, energy_scale = 1.0;
-  bool current = false;  // the Neo-Hookean's tangent at each point's current strain instead
-};
-
-// Mandel components of a batch of symmetric 3 x 3 tensors [n, 3, 3] -> [n, 6]: the diagonal, then
-// sqrt 2 times (0,1), (0,2), (1,2), so that a : b = mandel(a) . mandel(b).
-constexpr int kMandel[6][2] = {{0, 0}, {1, 1}, {2, 2}, {0, 1}, {0, 2}, {1, 2}};
-
-// The factor L^T of the Neo-Hookean's tangent at the points' current deformation gradients F
-// [n, 3, 3], in Mandel form: dS/dE = lambda c (x) c + 2 (mu - lambda ln J) I_c with c = C^-1 and
-// (I_c)_ijkl = (c_ik c_jl + c_il c_jk) / 2, so that dE : (dS/dE) : dE = |L^T mandel(dE)|^2. The
-// self-weight block's base is compressed by 10-15 % in volume, where this is ~50 % stiffer than
-// the zero-strain tangent: steps in that metric were too long (rho < 1/4, the damping climbing to
-// 14 x G's mean diagonal). The factor mu - lambda ln J is kept above mu / 10 (it falls below zero
-// only for J > e^(mu / lambda)), so the metric stays positive definite.
-Tensor currentTangentFactor(const Tensor& F, const StrainMetric& m) {
-  const Tensor Fd = F.detach().to(torch::kFloat64);
-  const Tensor c = torch::linalg_inv(torch::matmul(Fd.transpose(1, 2), Fd));
-  const Tensor lnJ = torch::log(torch::linalg_det(Fd).clamp_min(1e-12));
-  const Tensor shear = 2.0 * (m.mu - m.lambda * lnJ).clamp_min(0.1 * m.mu);
-  const long n = F.size(0);
-  Tensor M = torch::zeros({n, 6, 6}, Fd.options()), cm = torch::zeros({n, 6}, Fd.options());
-  for (int a = 0; a < 6; ++a) {
-    const int i = kMandel[a][0], j = kMandel[a][1];
-    const double sa = i == j ? 1.0 : std::sqrt(2.0);
-    cm.select(1, a).copy_(sa * c.select(1, i).select(1, j));
-    for (int b = 0; b < 6; ++b) {
-      const int k = kMandel[b][0], l = kMandel[b][1];
-      const double sb = k == l ? 1.0 : std::sqrt(2.0);
-      const Tensor sym = 0.5 * (c.select(1, i).select(1, k) * c.select(1, j).select(1, l) +
-                                c.select(1, i).select(1, l) * c.select(1, j).select(1, k));
-      M.select(1, a).select(1, b).copy_(sa * sb * shear * sym);
-    }
+// The metric's rows A at the drawn points x (their weights w, the lift's four fields there), [rows,
+// parameters] float: by hand (strain_jacobian.hpp), each point forward once and backward once per
+// row, on `threads` (0: every core). The autograd rows cost 0.46 s a step on the NeRF T-bar, as
+// much as the rest of the step.
+Tensor strainRows(const DisplacementMlp& net, const Tensor& x, const Tensor (&lift)[4], const Tensor& w,
+                  const strain_rows::Metric& metric, int threads) {
+  mlp_kernel::Network nn;
+  nn.depth = static_cast<int>(net.weights().size()) - 1;
+  nn.width = static_cast<int>(net.weights()[0].size(0));
+  for (std::size_t l = 0; l < net.weights().size(); ++l) {
+    nn.weights.push_back(net.weights()[l].data_ptr<float>());
+    nn.biases.push_back(net.biases()[l].data_ptr<float>());
   }
-  M += m.lambda * cm.unsqueeze(2) * cm.unsqueeze(1);
-  return torch::linalg_cholesky(M).transpose(1, 2);
+  const Tensor center = net.center().contiguous().reshape({3}), inv_half = net.invHalf().contiguous().reshape({3});
+  for (int k = 0; k < 3; ++k) {
+    nn.center[k] = center[k].item<float>();
+    nn.inv_half[k] = inv_half[k].item<float>();
+  }
+  const auto floats = [](const Tensor& t) { return t.to(torch::kFloat32).contiguous(); };
+  const Tensor xs = floats(x), ws = floats(w), g = floats(lift[0]), gg = floats(lift[1]), D = floats(lift[2]),
+               gD = floats(lift[3]);
+  mlp_kernel::VolumePoints points{xs.size(0), xs.data_ptr<float>(), ws.data_ptr<float>(), nullptr,
+                                  g.data_ptr<float>(), gg.data_ptr<float>(), D.data_ptr<float>(), gD.data_ptr<float>()};
+  Tensor rows = torch::empty({xs.size(0) * strain_rows::rowsPerPoint(metric), strain_rows::parameterCount(nn)},
+                             torch::kFloat32);
+  strain_rows::strainJacobianRows(nn, metric, points, rows.data_ptr<float>(),
+                                  threads > 0 ? threads : torch_support::allCores());
+  return rows;
 }
 
-// The Jacobians of the leaves' per-point outputs r [n, k] stacked as [n, k, P] (P the parameters).
-Tensor perPointJacobian(const Tensor& r, const std::vector<Tensor>& leaves) {
-  const long n = r.size(0);
-  std::vector<Tensor> rows;
-  for (long k = 0; k < r.size(1); ++k) {
-    const std::vector<Tensor> g = torch::autograd::grad({r.select(1, k).sum()}, leaves, {}, true);
-    std::vector<Tensor> columns;
-    for (const Tensor& gi : g) columns.push_back(gi.reshape({n, -1}));
-    rows.push_back(torch::cat(columns, 1));
-  }
-  return torch::stack(rows, 1);
+// G = A^T A in double from float rows, by BLAS's ssyrk when the process has one (one triangle:
+// half sgemm's products, the same G to the bit here; 0.26 -> 0.15 s a step on the NeRF T-bar's
+// 3,000 x 2,073 rows beside another busy process), mirrored.
+Tensor gramian(const Tensor& A) {
+  using Syrk = void (*)(const char*, const char*, const int*, const int*, const float*, const float*, const int*,
+                        const float*, float*, const int*);
+  static const auto syrk = reinterpret_cast<Syrk>(dlsym(RTLD_DEFAULT, "ssyrk_"));
+  if (!syrk) return torch::mm(A.t(), A).to(torch::kFloat64);
+  // Row-major A [k, n] is column-major A^T [n, k]: C = A^T (A^T)^T, its column-major lower triangle
+  // the row-major upper one.
+  const int n = static_cast<int>(A.size(1)), k = static_cast<int>(A.size(0));
+  const float one = 1.0f, zero = 0.0f;
+  Tensor C = torch::zeros({n, n}, torch::kFloat32);
+  syrk("L", "N", &n, &k, &one, A.contiguous().data_ptr<float>(), &n, &zero, C.data_ptr<float>(), &n);
+  const Tensor upper = C.to(torch::kFloat64);
+  return upper + upper.triu(1).t();
 }
 
-// The rows A of G = A^T A at the drawn points (their quadrature weights times `weight_scale`): per
-// point the Jacobians of sqrt(lambda w) tr E and sqrt(2 mu w) E_ij (i <= j, off-diagonals x sqrt 2),
-// so that |A d|^2 = sum_q w_q dE_q : C : dE_q, over the energy scale (the loss's units). Each
-// point gets its own copy of the weights, so that autograd's gradients in them are per point.
-Tensor strainJacobianRows(const DisplacementMlp& net, const Tensor& x, const Tensor (&lift)[4], const Tensor& w,
-                          const StrainMetric& m) {
-  const long n = x.size(0), layers = static_cast<long>(net.weights().size());
-  std::vector<Tensor> leaves;
-  for (long l = 0; l < layers; ++l) {
-    const Tensor& W = net.weights()[l];
-    leaves.push_back(W.detach().unsqueeze(0).expand({n, W.size(0), W.size(1)}).clone().requires_grad_());
-    leaves.push_back(net.biases()[l].detach().unsqueeze(0).expand({n, W.size(0)}).clone().requires_grad_());
-  }
-  Tensor h = (x - net.center()) * net.invHalf();
-  Tensor dh = torch::diag(net.invHalf().reshape({3})).unsqueeze(0).expand({n, 3, 3});  // [n, k, input]
-  for (long l = 0; l + 1 < layers; ++l) {
-    const Tensor& W = leaves[2 * l];
-    h = torch::tanh(torch::bmm(W, h.unsqueeze(2)).squeeze(2) + leaves[2 * l + 1]);
-    dh = (1 - h * h).unsqueeze(1) * torch::bmm(dh, W.transpose(1, 2));
-  }
-  const Tensor& Wo = leaves[2 * layers - 2];
-  const Tensor z = (torch::bmm(Wo, h.unsqueeze(2)).squeeze(2) + leaves[2 * layers - 1]) * m.out_scale;
-  const Tensor dz = torch::bmm(dh, Wo.transpose(1, 2)).transpose(1, 2) * m.out_scale;  // [n, i, k]
-  const Tensor du = m.load_scale * lift[1] + lift[3] * z.unsqueeze(2) + lift[2].unsqueeze(2) * dz;
-  const Tensor F = torch::eye(3, du.options()).unsqueeze(0) + du;
-  const Tensor E = 0.5 * (torch::matmul(F.transpose(1, 2), F) - torch::eye(3, du.options()).unsqueeze(0));
-  const Tensor ws = w / m.energy_scale;
-  if (m.current) {
-    std::vector<Tensor> e;
-    for (const auto& [i, j] : kMandel) e.push_back((i == j ? 1.0 : std::sqrt(2.0)) * E.select(1, i).select(1, j));
-    const Tensor L = currentTangentFactor(F, m).to(E.scalar_type()) * torch::sqrt(ws).reshape({n, 1, 1});
-    return torch::bmm(L, perPointJacobian(torch::stack(e, 1), leaves)).reshape({6 * n, -1});
-  }
-  std::vector<Tensor> r{torch::sqrt(m.lambda * ws) * E.diagonal(0, 1, 2).sum(1)};
-  for (int i = 0; i < 3; ++i)
-    for (int j = i; j < 3; ++j)
-      r.push_back(torch::sqrt(2 * m.mu * ws) * (i == j ? 1.0 : std::sqrt(2.0)) * E.select(1, i).select(1, j));
-  std::vector<Tensor> blocks;
-  for (const Tensor& rk : r) {
-    const std::vector<Tensor> g = torch::autograd::grad({rk.sum()}, leaves, {}, true);
-    std::vector<Tensor> columns;
-    for (const Tensor& gi : g) columns.push_back(gi.reshape({n, -1}));
-    blocks.push_back(torch::cat(columns, 1));
-  }
-  return torch::cat(blocks, 0);
-}
-
-// Every core for torch and BLAS while the steps run, unless the user pinned a count: each step is
-// a few dense products and a Cholesky of the parameters' size (the strain Jacobian's rows times
-// its ~2,000 columns, then G), which two threads nearly halve, unlike the small operations the
-// solver's one-thread default below 50k particles is for. The solver's count comes back after.
+// BLAS on every core while the steps run, torch on one, unless the user pinned a count: a step's
+// dense work is ssyrk and the damped Cholesky (OpenBLAS's own threads), its energies the fused
+// kernel's and its metric rows strain_jacobian's (std::threads of their own). Torch's remaining
+// operations are a few copies of G. With torch on two threads its OpenMP workers spun between
+// them, and OpenBLAS's after every call (parkBlasThreads): 40 steps on the NeRF T-bar took 15 s
+// wall on the quiet machine against 11.5 s with both kinds of worker made to sleep, and 32 s
+// beside another busy process against 20 s with this and parkBlasThreads. Restored after.
 class DenseAlgebraThreads {
  public:
   explicit DenseAlgebraThreads(int pinned) : before_(at::get_num_threads()) {
-    if (pinned == 0) torch_support::setSolverThreads(torch_support::allCores(), 0);
+    if (pinned == 0) {
+      at::set_num_threads(1);
+      setBlasThreads(torch_support::allCores());
+    }
   }
   ~DenseAlgebraThreads() { torch_support::setSolverThreads(before_, 0); }
   DenseAlgebraThreads(const DenseAlgebraThreads&) = delete;
@@ -302,6 +261,36 @@ class GaussNewtonStop {
   std::string why_;
 };
 
+// Where the steps' time goes, for dem.verbose: wall and process CPU seconds (all threads, spinning
+// ones too) per phase, each lap charged to the phase that just ended.
+class StepPhases {
+ public:
+  enum Phase { kGuard, kGradient, kRows, kGram, kSolve, kTrials, kCount };
+  void lap(Phase p) {
+    const auto now = Clock::now();
+    const std::clock_t cpu = std::clock();
+    wall_[p] += std::chrono::duration<double>(now - wall_at_).count();
+    cpu_[p] += static_cast<double>(cpu - cpu_at_) / CLOCKS_PER_SEC;
+    wall_at_ = now;
+    cpu_at_ = cpu;
+    trials_ += p == kTrials;
+  }
+  std::string summary(int steps) const {
+    static const char* names[kCount] = {"guard", "gradient", "metric rows", "G", "factor+solves", "trial energies"};
+    std::ostringstream out;
+    out << steps << " steps, " << trials_ << " trials; wall/CPU s:";
+    for (int p = 0; p < kCount; ++p) out << (p ? ", " : " ") << names[p] << " " << wall_[p] << "/" << cpu_[p];
+    return out.str();
+  }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  Clock::time_point wall_at_ = Clock::now();
+  std::clock_t cpu_at_ = std::clock();
+  double wall_[kCount] = {}, cpu_[kCount] = {};
+  int trials_ = 0;
+};
+
 }  // namespace
 
 bool DemSolver::Impl::gaussNewtonAvailable() const {
@@ -318,7 +307,7 @@ void DemSolver::Impl::gaussNewton(double scale, int& iterations, double toleranc
   const JitterDraw& draw = cellDraw();
   const long m = std::min<long>(config.gauss_newton.sample, draw.x.size(0));
   const bool decoupled = scenario.material.model == "neo_hookean_decoupled";
-  StrainMetric metric;
+  strain_rows::Metric metric;
   metric.mu = material->mu();
   // The decoupled law's zero-strain tangent is kappa I (x) I + 2 mu (I - I (x) I / 3).
   metric.lambda = std::max(0.0, decoupled ? material->kappa() - 2.0 * metric.mu / 3.0 : scenario.material.lambda());
@@ -336,32 +325,41 @@ void DemSolver::Impl::gaussNewton(double scale, int& iterations, double toleranc
   GaussNewtonStop stop(config.gauss_newton, tolerance,
                        clock && control.time_limit > 0 ? std::max(control.time_limit - reserve, 1e-9) : 0.0,
                        resume ? gauss_newton_resume.energies : std::vector<double>{});
+  StepPhases phases;
   while (!stop.done(damping < kMaxDamping, clock ? clock->elapsed() : 0.0)) {
     balanceOutput(scale);  // a no-op once balanced; GN alone starts at the a-priori amplitude
     if (watchman.due()) {
       torch::NoGradGuard no_grad;
       watchman.record(shiftedCellEnergy(scale), displacement(xv, lift_v, false, scale).first, [&] { return snapshot(); });
     }
-    metric.out_scale = out_scale;
+    phases.lap(StepPhases::kGuard);
+    metric.output_scale = out_scale;
     metric.energy_scale = energy_scale;
     double energy = 0.0, jm = 0.0;
     const double e0 = fusedLoss(scale, draw, true, &energy, &jm).item<double>(), start_energy = energy;
     if (!std::isfinite(e0)) return;
     const Tensor grad = flatten(net, true), theta = flatten(net, false);
+    phases.lap(StepPhases::kGradient);
     const auto [idx, w] = metric_draw.next(rng);
     const Tensor lift[4] = {draw.lift[0].index_select(0, idx), draw.lift[1].index_select(0, idx),
                             draw.lift[2].index_select(0, idx), draw.lift[3].index_select(0, idx)};
-    const Tensor A = strainJacobianRows(net, draw.x.index_select(0, idx), lift, w, metric);
-    const Tensor G = torch::mm(A.t(), A).to(torch::kFloat64);
+    const Tensor A = strainRows(net, draw.x.index_select(0, idx), lift, w, metric, config.threads);
+    phases.lap(StepPhases::kRows);
+    const Tensor G = gramian(A);
+    phases.lap(StepPhases::kGram);
     // Until the energy falls, or the damping says the model is not to be trusted.
     const double accepted = dampedStep(G, grad, damping, [&](const Tensor& d, double predicted) {
       assign(net, theta + d);
+      parkBlasThreads();  // the energies run on the kernel's threads: no BLAS worker spinning beside them
+      phases.lap(StepPhases::kSolve);
       const double e1 = fusedLoss(scale, draw, false, &energy, &jm).item<double>();
+      phases.lap(StepPhases::kTrials);
       const double rho = (e0 - e1) / predicted;
       if (std::isfinite(e1) && rho > 0) return rho;
       assign(net, theta);
       return 0.0;
     }) ? energy : start_energy;
+    phases.lap(StepPhases::kSolve);
     stop.record(accepted);
     if (config.verbose)
       std::cerr << "dem: Gauss-Newton step " << stop.steps() << " energy " << accepted << " J, damping " << damping
@@ -372,7 +370,8 @@ void DemSolver::Impl::gaussNewton(double scale, int& iterations, double toleranc
   gauss_newton_ended = std::to_string(stop.steps()) + " Gauss-Newton steps (" + stop.why() + ")";
   gauss_newton_converged = stop.converged();
   gauss_newton_resume = {stop.energies(), damping};
-  if (config.verbose) std::cerr << "dem: " << gauss_newton_ended << "\n";
+  if (config.verbose)
+    std::cerr << "dem: " << gauss_newton_ended << "\ndem: Gauss-Newton time: " << phases.summary(stop.steps()) << "\n";
   keepGuardedBest(watchman, scale);
 }
 

@@ -15,4 +15,10 @@ void keepLargeAllocationsInHeap();
 /// machine. Found through dlsym so a build against another BLAS still links (then a no-op).
 void setBlasThreads(int threads);
 
+/// Ends OpenBLAS's worker threads now; its next threaded call starts them again (~0.1 ms). Idle,
+/// they spin on sched_yield for ~0.1 s (its THREAD_TIMEOUT, read only at load) before they sleep,
+/// and took a core from the Gauss-Newton steps' own threads after every factor (docs/
+/// dem_feature_grid.md, "A faster Gauss-Newton step"). A no-op without OpenBLAS.
+void parkBlasThreads();
+
 }  // namespace demnerf::mechanics
