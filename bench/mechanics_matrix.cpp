@@ -354,6 +354,7 @@ void runSource(const bench::MatrixCase& mc, const core::Scenario& scenario, cons
 
 int main(int argc, char** argv) {
   demnerf::mechanics::keepLargeAllocationsInHeap();  // as the product's entry points do (tune_allocator)
+  demnerf::mechanics::allowBlasThreadParking(true);   // as `demnerf simulate` does
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   const Settings s = parseSettings(argc, argv);
   bench::MatrixReport report;

@@ -60,7 +60,8 @@ int main(int argc, char** argv) {
       return 0;
     }
     // --threads where a command takes it (0: all cores); simulate and train refine it from their configs.
-    dem_nerf::configureRuntime({arguments.integer("threads", 0), false});
+    // One command at a time on this thread: OpenBLAS's idle workers may be ended (park_blas_threads).
+    dem_nerf::configureRuntime({arguments.integer("threads", 0), false, true});
     const Figures figures = command->run(arguments);
     printFigures(figures, arguments.flag("json"));
     return 0;

@@ -20,7 +20,7 @@ Figures runTrain(const Arguments& arguments) {
   if (arguments.has("threads")) config.train.threads = arguments.integer("threads", 0);
   if (arguments.has("seed")) config.train.seed = static_cast<std::uint64_t>(arguments.integer("seed", 1));
   config.validate();
-  if (config.train.threads > 0) dem_nerf::configureRuntime({config.train.threads, false});  // a config file's count
+  if (config.train.threads > 0) dem_nerf::configureRuntime({config.train.threads, false, true});  // a config file's count
   nerf::StopCriteria stop;
   stop.seconds = arguments.number("seconds", 0.0);
   stop.iterations = arguments.integer("iterations", 0);

@@ -15,6 +15,7 @@ void configureRuntime(const RuntimeOptions& options) {
   at::set_num_threads(threads);
   demnerf::mechanics::setBlasThreads(threads);  // OpenBLAS's pool ignores torch's count
   if (options.keep_large_allocations) demnerf::mechanics::keepLargeAllocationsInHeap();
+  demnerf::mechanics::allowBlasThreadParking(options.park_blas_threads);
 }
 
 }  // namespace dem_nerf

@@ -16,6 +16,10 @@ struct RuntimeOptions {
   /// the step at T-bar sizes). DemConfig::tune_allocator. Off for nerf_node, whose memory is
   /// better returned to the system between its phases.
   bool keep_large_allocations = false;
+  /// The Gauss-Newton DEM may end OpenBLAS's spinning workers after each factor
+  /// (demnerf::mechanics::allowBlasThreadParking). Only for a process that calls BLAS from one
+  /// thread at a time: `demnerf`, not dem_node, whose render worker runs beside its solves.
+  bool park_blas_threads = false;
 };
 
 void configureRuntime(const RuntimeOptions& options);

@@ -3,7 +3,12 @@
 #include <dlfcn.h>
 #include <malloc.h>
 
+#include <atomic>
+
 namespace demnerf::mechanics {
+namespace {
+std::atomic<bool> blas_parking_allowed{false};
+}  // namespace
 
 void keepLargeAllocationsInHeap() {
   mallopt(M_MMAP_THRESHOLD, 512 * 1024 * 1024);
@@ -18,7 +23,9 @@ void setBlasThreads(int threads) {
 void parkBlasThreads() {
   using Shutdown = int (*)();
   static const auto shutdown = reinterpret_cast<Shutdown>(dlsym(RTLD_DEFAULT, "blas_thread_shutdown_"));
-  if (shutdown) shutdown();
+  if (shutdown && blas_parking_allowed.load()) shutdown();
 }
+
+void allowBlasThreadParking(bool allowed) { blas_parking_allowed.store(allowed); }
 
 }  // namespace demnerf::mechanics

@@ -18,7 +18,15 @@ void setBlasThreads(int threads);
 /// Ends OpenBLAS's worker threads now; its next threaded call starts them again (~0.1 ms). Idle,
 /// they spin on sched_yield for ~0.1 s (its THREAD_TIMEOUT, read only at load) before they sleep,
 /// and took a core from the Gauss-Newton steps' own threads after every factor (docs/
-/// dem_feature_grid.md, "A faster Gauss-Newton step"). A no-op without OpenBLAS.
+/// dem_feature_grid.md, "A faster Gauss-Newton step"). A no-op without OpenBLAS, and unless the
+/// process allowed it (allowBlasThreadParking).
 void parkBlasThreads();
+
+/// Lets parkBlasThreads end OpenBLAS's workers; off by default. Only a process that calls BLAS
+/// from one thread at a time may allow it: OpenBLAS's shutdown does not wait for a call in flight
+/// on another thread, whose workers can then miss the exit and leave the shutdown joining them
+/// forever. `demnerf` and the benchmarks allow it; dem_node does not (its render worker runs the
+/// NeRF's matmuls beside a solve).
+void allowBlasThreadParking(bool allowed);
 
 }  // namespace demnerf::mechanics
