@@ -17,8 +17,8 @@ struct RuntimeOptions {
   /// better returned to the system between its phases.
   bool keep_large_allocations = false;
   /// The Gauss-Newton DEM may end OpenBLAS's spinning workers after each factor
-  /// (demnerf::mechanics::allowBlasThreadParking). Only for a process that calls BLAS from one
-  /// thread at a time: `demnerf`, not dem_node, whose render worker runs beside its solves.
+  /// (demnerf::mechanics::allowBlasThreadParking). Only for a process whose other threads hold a
+  /// BlasCallsInFlight around their BLAS calls: `demnerf` (one thread), dem_node (its renders).
   bool park_blas_threads = false;
 };
 

@@ -10,7 +10,9 @@ int main(int argc, char** argv) {
   try {
     const dem_nerf::DemNodeConfig config = dem_nerf::DemNodeConfig::fromParameters(private_node);
     const demnerf::mechanics::DemConfig& dem = config.solver_options.dem;
-    dem_nerf::configureRuntime({dem.threads, dem.tune_allocator});
+    // OpenBLAS's idle workers may be ended during a solve: the render worker marks its renders
+    // (BlasCallsInFlight), the only BLAS calls beside the solve worker's.
+    dem_nerf::configureRuntime({dem.threads, dem.tune_allocator, true});
     dem_nerf::DemNode dem_node(node, private_node, config);
     ros::AsyncSpinner spinner(2);
     spinner.start();

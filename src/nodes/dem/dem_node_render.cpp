@@ -7,6 +7,7 @@
 #include "conversions/camera_info_conversions.hpp"
 #include "conversions/image_conversions.hpp"
 #include "demnerf/core/error.hpp"
+#include "demnerf/mechanics/process_settings.hpp"
 #include "nodes/dem/dem_node.hpp"
 
 namespace dem_nerf {
@@ -85,7 +86,11 @@ void DemNode::runRender(const RenderJob& job) {
       throw Error("the NeRF model is in frame '" + model_frame + "' but ~particles_frame is '" +
                   config_.particles_frame + "'");
     }
-    view_.useModel(model_path);
+    {
+      // Loading may evaluate the model: torch matmuls, OpenBLAS calls the solve must not shut down under.
+      const demnerf::mechanics::BlasCallsInFlight blas_calls;
+      view_.useModel(model_path);
+    }
     if (!camera) camera = cameraFromFieldOfView(config_.render_width, config_.render_height, config_.render_fov);
     std::string why;
     if (!tf_buffer_.canTransform(config_.particles_frame, config_.render_frame, ros::Time(0),
@@ -96,7 +101,10 @@ void DemNode::runRender(const RenderJob& job) {
     const Eigen::Isometry3d world_from_camera = tf2::transformToEigen(
         tf_buffer_.lookupTransform(config_.particles_frame, config_.render_frame, ros::Time(0)));
     const ros::WallTime start = ros::WallTime::now();
-    const cv::Mat rgba = view_.render(job.result, *camera, world_from_camera);  // RGBA float
+    const cv::Mat rgba = [&] {
+      const demnerf::mechanics::BlasCallsInFlight blas_calls;  // the NeRF's matmuls, beside a solve
+      return view_.render(job.result, *camera, world_from_camera);  // RGBA float
+    }();
     const double seconds = (ros::WallTime::now() - start).toSec();
     std_msgs::Header header;
     header.stamp = job.stamp;

@@ -18,15 +18,26 @@ void setBlasThreads(int threads);
 /// Ends OpenBLAS's worker threads now; its next threaded call starts them again (~0.1 ms). Idle,
 /// they spin on sched_yield for ~0.1 s (its THREAD_TIMEOUT, read only at load) before they sleep,
 /// and took a core from the Gauss-Newton steps' own threads after every factor (docs/
-/// dem_feature_grid.md, "A faster Gauss-Newton step"). A no-op without OpenBLAS, and unless the
-/// process allowed it (allowBlasThreadParking).
-void parkBlasThreads();
+/// dem_feature_grid.md, "A faster Gauss-Newton step"). A no-op without OpenBLAS, unless the
+/// process allowed it (allowBlasThreadParking), and while another thread holds a
+/// BlasCallsInFlight. Returns whether the workers were ended.
+bool parkBlasThreads();
 
-/// Lets parkBlasThreads end OpenBLAS's workers; off by default. Only a process that calls BLAS
-/// from one thread at a time may allow it: OpenBLAS's shutdown does not wait for a call in flight
-/// on another thread, whose workers can then miss the exit and leave the shutdown joining them
-/// forever. `demnerf` and the benchmarks allow it; dem_node does not (its render worker runs the
-/// NeRF's matmuls beside a solve).
+/// Lets parkBlasThreads end OpenBLAS's workers; off by default. OpenBLAS's shutdown does not wait
+/// for a call in flight on another thread, whose workers can then miss the exit and leave the
+/// shutdown joining them forever. So a process allows it only where every other thread that calls
+/// BLAS while a solve runs holds a BlasCallsInFlight around those calls: `demnerf` and the
+/// benchmarks (one thread), dem_node (its render worker around each render).
 void allowBlasThreadParking(bool allowed);
+
+/// Marks BLAS calls in flight on this thread for its lifetime: parkBlasThreads, on the solving
+/// thread, skips the shutdown meanwhile. Any number of threads may hold one at once.
+class BlasCallsInFlight {
+ public:
+  BlasCallsInFlight();
+  ~BlasCallsInFlight();
+  BlasCallsInFlight(const BlasCallsInFlight&) = delete;
+  BlasCallsInFlight& operator=(const BlasCallsInFlight&) = delete;
+};
 
 }  // namespace demnerf::mechanics
