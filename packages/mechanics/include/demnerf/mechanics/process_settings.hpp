@@ -27,7 +27,7 @@ bool parkBlasThreads();
 /// for a call in flight on another thread, whose workers can then miss the exit and leave the
 /// shutdown joining them forever. So a process allows it only where every other thread that calls
 /// BLAS while a solve runs holds a BlasCallsInFlight around those calls: `demnerf` and the
-/// benchmarks (one thread), dem_node (its render worker around each render).
+/// solver matrix bench (one thread), dem_node (its render worker around each render).
 void allowBlasThreadParking(bool allowed);
 
 /// Marks BLAS calls in flight on this thread for its lifetime: parkBlasThreads, on the solving
