@@ -20,7 +20,6 @@
 #include <memory>
 #include <cstdio>
 #include <map>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -36,6 +35,7 @@
 #include "demnerf/nerf/model_io.hpp"
 #include "dem_config_check.hpp"
 #include "mechanics_matrix_cases.hpp"
+#include "mechanics_matrix_report.hpp"
 #include "pipeline/model_geometry.hpp"
 #include "surface_roughness.hpp"
 
@@ -59,13 +59,6 @@ Options parse(int argc, char** argv) {
 std::string get(const Options& o, const std::string& key, const std::string& fallback) {
   const auto it = o.find(key);
   return it == o.end() ? fallback : it->second;
-}
-
-std::vector<std::string> split(const std::string& text) {
-  std::vector<std::string> items;
-  std::stringstream stream(text);
-  for (std::string item; std::getline(stream, item, ',');) items.push_back(item);
-  return items;
 }
 
 double percentile(std::vector<double> values, double share) {
@@ -106,9 +99,9 @@ std::string roughVerdict(const core::ParticleCloud& cloud) {
 }
 
 void printRoughness(const core::TriangleMesh& mesh, const bench::MatrixCase& mc, const Options& options) {
-  for (const std::string& sampler : split(get(options, "samplers", "random,poisson,grid"))) {
+  for (const std::string& sampler : bench::splitList(get(options, "samplers", "random,poisson,grid"))) {
     std::printf("    %-8s", sampler.c_str());
-    for (const std::string& divisor : split(get(options, "spacings", "6,10,15"))) {
+    for (const std::string& divisor : bench::splitList(get(options, "spacings", "6,10,15"))) {
       geometry::SamplerConfig config;
       config.method = geometry::parseSamplingMethod(sampler);
       config.spacing = mc.smallest / std::stod(divisor);
@@ -187,7 +180,7 @@ int main(int argc, char** argv) try {
               exact.volume(), exact.area, 100 * dm::DemConfig{}.grid.rough_surface);
   std::printf("%6s %7s %8s %8s %8s %8s %8s %9s\n", "smooth", "faces", "vol err", "area err", "chamfer", "p95", "p99",
               "hausdorff");
-  for (const std::string& passes : split(get(options, "smooth", "0,2,5,10"))) {
+  for (const std::string& passes : bench::splitList(get(options, "smooth", "0,2,5,10"))) {
     const geometry::MeshExtractionResult result = options.count("rounded")
                                                       ? roundedBody(truth, std::stoi(passes), options)
                                                       : extraction(*model, std::stoi(passes), options);

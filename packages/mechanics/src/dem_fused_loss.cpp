@@ -42,27 +42,33 @@ bool DemSolver::Impl::fusedLossAvailable() const {
          config.network.depth >= 1;
 }
 
-// The loss on a draw (drawJitter()) and, with `gradient`, its gradient into the parameters' .grad.
-// Returns the loss (no graph), sets energy and min det F; an inadmissible point gives a NaN loss.
-Tensor DemSolver::Impl::fusedLoss(double scale, const JitterDraw& draw, bool gradient, double* energy,
-                                  double* min_J) {
+mlp_kernel::Network DemSolver::Impl::kernelNetwork() const {
   mlp_kernel::Network nn;
   nn.width = config.network.width;
   nn.depth = config.network.depth;
-  mlp_kernel::Gradient grad;
   for (std::size_t l = 0; l < net.weights().size(); ++l) {
     nn.weights.push_back(net.weights()[l].data_ptr<float>());
     nn.biases.push_back(net.biases()[l].data_ptr<float>());
-    if (!gradient) continue;
-    for (Tensor* p : {&net.weights()[l], &net.biases()[l]})
-      if (!p->grad().defined()) p->mutable_grad() = torch::zeros_like(*p);
-    grad.weights.push_back(net.weights()[l].grad().data_ptr<float>());
-    grad.biases.push_back(net.biases()[l].grad().data_ptr<float>());
   }
   const Tensor center = net.center().contiguous(), inv_half = net.invHalf().contiguous();
   for (int k = 0; k < 3; ++k) {
     nn.center[k] = center.data_ptr<float>()[k];
     nn.inv_half[k] = inv_half.data_ptr<float>()[k];
+  }
+  return nn;
+}
+
+// The loss on a draw (drawJitter()) and, with `gradient`, its gradient into the parameters' .grad.
+// Returns the loss (no graph), sets energy and min det F; an inadmissible point gives a NaN loss.
+Tensor DemSolver::Impl::fusedLoss(double scale, const JitterDraw& draw, bool gradient, double* energy,
+                                  double* min_J) {
+  const mlp_kernel::Network nn = kernelNetwork();
+  mlp_kernel::Gradient grad;
+  for (std::size_t l = 0; gradient && l < net.weights().size(); ++l) {
+    for (Tensor* p : {&net.weights()[l], &net.biases()[l]})
+      if (!p->grad().defined()) p->mutable_grad() = torch::zeros_like(*p);
+    grad.weights.push_back(net.weights()[l].grad().data_ptr<float>());
+    grad.biases.push_back(net.biases()[l].grad().data_ptr<float>());
   }
   const bool exact = config.boundary.kind == DemConfig::Boundary::kExact;
   mlp_kernel::Problem pb;

@@ -45,20 +45,8 @@ constexpr double kMaxDamping = 1e8;
 // parameters] float: by hand (strain_jacobian.hpp), each point forward once and backward once per
 // row, on `threads` (0: every core). The autograd rows cost 0.46 s a step on the NeRF T-bar, as
 // much as the rest of the step.
-Tensor strainRows(const DisplacementMlp& net, const Tensor& x, const Tensor (&lift)[4], const Tensor& w,
+Tensor strainRows(const mlp_kernel::Network& nn, const Tensor& x, const Tensor (&lift)[4], const Tensor& w,
                   const strain_rows::Metric& metric, int threads) {
-  mlp_kernel::Network nn;
-  nn.depth = static_cast<int>(net.weights().size()) - 1;
-  nn.width = static_cast<int>(net.weights()[0].size(0));
-  for (std::size_t l = 0; l < net.weights().size(); ++l) {
-    nn.weights.push_back(net.weights()[l].data_ptr<float>());
-    nn.biases.push_back(net.biases()[l].data_ptr<float>());
-  }
-  const Tensor center = net.center().contiguous().reshape({3}), inv_half = net.invHalf().contiguous().reshape({3});
-  for (int k = 0; k < 3; ++k) {
-    nn.center[k] = center[k].item<float>();
-    nn.inv_half[k] = inv_half[k].item<float>();
-  }
   const auto floats = [](const Tensor& t) { return t.to(torch::kFloat32).contiguous(); };
   const Tensor xs = floats(x), ws = floats(w), g = floats(lift[0]), gg = floats(lift[1]), D = floats(lift[2]),
                gD = floats(lift[3]);
@@ -343,7 +331,7 @@ void DemSolver::Impl::gaussNewton(double scale, int& iterations, double toleranc
     const auto [idx, w] = metric_draw.next(rng);
     const Tensor lift[4] = {draw.lift[0].index_select(0, idx), draw.lift[1].index_select(0, idx),
                             draw.lift[2].index_select(0, idx), draw.lift[3].index_select(0, idx)};
-    const Tensor A = strainRows(net, draw.x.index_select(0, idx), lift, w, metric, config.threads);
+    const Tensor A = strainRows(kernelNetwork(), draw.x.index_select(0, idx), lift, w, metric, config.threads);
     phases.lap(StepPhases::kRows);
     const Tensor G = gramian(A);
     phases.lap(StepPhases::kGram);

@@ -32,6 +32,9 @@
 namespace demnerf::mechanics {
 
 class ExploitGuard;
+namespace mlp_kernel {
+struct Network;
+}
 
 struct DemSolver::Impl {
   using Tensor = torch::Tensor;
@@ -126,6 +129,9 @@ struct DemSolver::Impl {
   double energyWithAmplitude(double scale, double alpha);
   // dem_fused_loss.cpp: the same loss on a draw by mlp_energy_kernel.hpp, its gradient into .grad.
   bool fusedLossAvailable() const;
+  // The network as the hand-written kernels read it (the fused loss, the Gauss-Newton rows): the
+  // float32 weights in place, valid until the parameters are next assigned.
+  mlp_kernel::Network kernelNetwork() const;
   Tensor fusedLoss(double scale, const JitterDraw& draw, bool gradient, double* energy, double* min_J);
   // ...and the fixed cell quadrature lbfgs.cell_spacings asks for (built at the first solve), and
   // the same rule on the grid shifted by half a cell: points the training never sees, whose energy
