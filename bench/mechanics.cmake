@@ -47,7 +47,8 @@ if(NOT COMMAND demnerf_mechanics_matrix_bench)
     add_executable(mechanics_matrix ${DEMNERF_ROOT_DIR}/bench/mechanics_matrix.cpp
                                     ${DEMNERF_ROOT_DIR}/bench/mechanics_matrix_cases.cpp
                                     ${DEMNERF_ROOT_DIR}/bench/mechanics_matrix_nerf.cpp
-                                    ${DEMNERF_ROOT_DIR}/bench/mechanics_matrix_report.cpp)
+                                    ${DEMNERF_ROOT_DIR}/bench/mechanics_matrix_report.cpp
+                                    ${DEMNERF_ROOT_DIR}/bench/mechanics_matrix_settings.cpp)
     target_link_libraries(mechanics_matrix PRIVATE demnerf_mechanics demnerf_geometry demnerf_render demnerf_nerf)
     # mechanics_matrix_merge: one report from the CSVs of several runs (columns run separately).
     add_executable(mechanics_matrix_merge ${DEMNERF_ROOT_DIR}/bench/mechanics_matrix_merge.cpp

@@ -20,6 +20,7 @@
 //   fem_div=0 (FEM column's mesh size = smallest dimension / fem_div; 0: the CLI's automatic size)
 //   ref_div=8 conv_div=6 (reference FEM cells: smallest dimension / these)   ref_time_limit=1800
 //   nerf_seconds=60, or nerf_cpu_seconds=C (a CPU budget, 2 x seconds on an idle 2-core machine)
+//   nerf_config=FILE (a NeRF YAML over the defaults for the NeRF rows, e.g. `train: {seed: 2}`: another draw)
 //   seed=1   yaml=PATH (one scenario: this YAML instead of config/scenarios/<name>.yaml, same surface)
 //   out=DIR (default output/bench/mechanics_matrix: reference and NeRF caches, CSV/MD/PNG)
 //   docs=DIR (default docs/ for a full run, none for quick=1 or a subset): DIR/mechanics_matrix.{csv,md,png}
@@ -52,6 +53,7 @@
 #include "mechanics_matrix_nerf.hpp"
 #include "mechanics_matrix_reference.hpp"
 #include "mechanics_matrix_report.hpp"
+#include "mechanics_matrix_settings.hpp"
 
 namespace dm = demnerf::mechanics;
 namespace core = demnerf::core;
@@ -61,59 +63,8 @@ using Eigen::Vector3d;
 
 namespace {
 
-struct Settings {
-  std::vector<std::string> scenarios, samplers, sources, solvers;
-  std::vector<int> divisors;
-  double time_limit = 60.0, ref_time_limit = 1800.0, fem_div = 0.0, nerf_seconds = 60.0, nerf_cpu_seconds = 0.0;
-  double grid_spacings = 2.0, extension_fill = 0.75, body_cells = 0.0;  // the dem_cells / dem_ext columns
-  int boundary_levels = 1, mlp_iters = -1, mlp_lbfgs = -1, gn_steps = -1, ref_div = 8, conv_div = 6, seed = 1;
-  std::string out, docs, title, yaml, config;
-  std::vector<std::string> rows;
-  bool partial = false;
-};
-
-Settings parseSettings(int argc, char** argv) {
-  std::map<std::string, std::string> a = bench::keyValueArguments(argc, argv);
-  const bool quick = a.count("quick") && a["quick"] != "0";
-  auto text = [&](const char* key, const std::string& fallback) { return a.count(key) ? a[key] : fallback; };
-  auto num = [&](const char* key, double fallback) { return a.count(key) ? std::stod(a[key]) : fallback; };
-  std::string all;
-  for (const bench::MatrixCase& c : bench::matrixCases()) all += (all.empty() ? "" : ",") + c.name;
-  Settings s;
-  s.scenarios = bench::splitList(text("scenarios", quick ? "beam3d" : all));
-  s.samplers = bench::splitList(text("samplers", quick ? "grid" : "random,poisson,grid"));
-  s.sources = bench::splitList(text("sources", quick ? "exact" : "exact,nerf"));
-  s.solvers = bench::splitList(text("solvers", quick ? "fem,dem" : "fem,dem,dem_mlp,dem_mlp_exact,dem_mlp_gn"));
-  for (const std::string& d : bench::splitList(text("spacings", quick ? "6" : "6,10,15")))
-    s.divisors.push_back(std::stoi(d));
-  s.time_limit = num("time_limit", s.time_limit);
-  s.ref_time_limit = num("ref_time_limit", s.ref_time_limit);
-  s.fem_div = num("fem_div", s.fem_div);
-  s.nerf_seconds = num("nerf_seconds", s.nerf_seconds);
-  s.nerf_cpu_seconds = num("nerf_cpu_seconds", s.nerf_cpu_seconds);
-  for (const auto& [key, value] : {std::pair<const char*, int*>{"mlp_iters", &s.mlp_iters}, {"mlp_lbfgs", &s.mlp_lbfgs},
-                                   {"gn_steps", &s.gn_steps}, {"ref_div", &s.ref_div}, {"conv_div", &s.conv_div},
-                                   {"seed", &s.seed}})
-    *value = static_cast<int>(num(key, *value));
-  s.grid_spacings = num("grid_spacings", s.grid_spacings);
-  s.extension_fill = num("ext_fill", s.extension_fill);
-  s.body_cells = num("body_cells", s.body_cells);
-  s.boundary_levels = static_cast<int>(num("levels", s.boundary_levels));
-  s.yaml = text("yaml", "");
-  s.config = text("config", "");
-  s.rows = bench::splitList(text("rows", ""));
-  if (!s.yaml.empty() && s.scenarios.size() != 1) throw demnerf::core::Error("yaml= needs exactly one scenario in scenarios=");
-  s.partial = !s.yaml.empty() || !s.config.empty() || !s.rows.empty() || s.scenarios.size() < bench::matrixCases().size() ||
-              s.samplers.size() < 3 || s.sources.size() < 2 || s.solvers.size() < 4 || s.divisors.size() < 3;
-  s.out = text("out", std::string(DEMNERF_ROOT) + "/output/bench/mechanics_matrix");
-  s.docs = text("docs", s.partial ? "" : std::string(DEMNERF_ROOT) + "/docs");
-  s.title = "mechanics_matrix";
-  for (int i = 1; i < argc; ++i) s.title += std::string(" ") + argv[i];
-  return s;
-}
-
 // The solver columns: what `demnerf simulate` runs for each, with the bench's time limit.
-dm::SimulateOptions solverOptions(const std::string& solver, const Settings& s, const core::TriangleMesh& surface,
+dm::SimulateOptions solverOptions(const std::string& solver, const bench::MatrixSettings& s, const core::TriangleMesh& surface,
                                   double smallest) {
   dm::SimulateOptions o;
   o.control.time_limit = s.time_limit;
@@ -183,7 +134,7 @@ core::ResultField slice(const core::ResultField& field, std::size_t begin, std::
 // One solver on one cloud: converged (with errors against the reference when there is one) or the
 // failure's cause and message.
 bench::MatrixCell runCell(const std::string& solver, const core::ParticleCloud& cloud, const core::Scenario& scenario,
-                          const core::TriangleMesh& surface, double smallest, const Settings& s,
+                          const core::TriangleMesh& surface, double smallest, const bench::MatrixSettings& s,
                           const core::ResultField* reference, double reference_energy) {
   bench::MatrixCell cell;
   cell.solver = solver;
@@ -229,7 +180,7 @@ void printCell(const bench::MatrixRow& row, const bench::MatrixCell& c) {
   std::fflush(stdout);
 }
 
-void writeOutputs(const bench::MatrixReport& report, const Settings& s) {
+void writeOutputs(const bench::MatrixReport& report, const bench::MatrixSettings& s) {
   for (const std::string& dir : {s.out, s.docs}) {
     if (dir.empty()) continue;
     std::filesystem::create_directories(dir);
@@ -250,7 +201,7 @@ struct SourceClouds {
 };
 
 SourceClouds sampleClouds(const bench::MatrixCase& mc, const std::string& source, const core::TriangleMesh& surface,
-                          const Settings& s) {
+                          const bench::MatrixSettings& s) {
   SourceClouds out;
   for (const std::string& sampler : s.samplers)
     for (int divisor : s.divisors) {
@@ -289,7 +240,7 @@ SourceClouds sampleClouds(const bench::MatrixCase& mc, const std::string& source
 
 // The reference FEM at two mesh sizes, its convergence and sanity row (printed); returns the fine one.
 bench::Reference referencePair(const bench::MatrixCase& mc, const core::Scenario& scenario, const std::string& source,
-                               const core::TriangleMesh& surface, const Settings& s, const SourceClouds& sc,
+                               const core::TriangleMesh& surface, const bench::MatrixSettings& s, const SourceClouds& sc,
                                bench::MatrixReport& report) {
   bench::ConvergenceRow conv{mc.name, source};
   const std::string stem = s.out + "/reference_" + mc.name + "_" + source;
@@ -326,7 +277,7 @@ bench::Reference referencePair(const bench::MatrixCase& mc, const core::Scenario
 
 // Every row (and its solver cells) of one scenario from one surface.
 void runSource(const bench::MatrixCase& mc, const core::Scenario& scenario, const std::string& source,
-               const core::TriangleMesh& surface, const Settings& s, bench::MatrixReport& report) {
+               const core::TriangleMesh& surface, const bench::MatrixSettings& s, bench::MatrixReport& report) {
   SourceClouds sc = sampleClouds(mc, source, surface, s);
   const bench::Reference fine = referencePair(mc, scenario, source, surface, s, sc, report);
   for (std::size_t r = 0; r < sc.rows.size(); ++r) {
@@ -356,7 +307,7 @@ int main(int argc, char** argv) {
   demnerf::mechanics::keepLargeAllocationsInHeap();  // as the product's entry points do (tune_allocator)
   demnerf::mechanics::allowBlasThreadParking(true);   // as `demnerf simulate` does
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
-  const Settings s = parseSettings(argc, argv);
+  const bench::MatrixSettings s = bench::parseMatrixSettings(argc, argv);
   bench::MatrixReport report;
   report.title = s.title;
   report.partial = s.partial;
@@ -380,7 +331,7 @@ int main(int argc, char** argv) {
           surface = mc->surface();
         } else if (source == "nerf") {
           surface = bench::nerfSurface(
-              {mc->nerf_scene, s.out + "/nerf_" + mc->nerf_scene, s.nerf_seconds, s.nerf_cpu_seconds});
+              {mc->nerf_scene, s.out + "/nerf_" + mc->nerf_scene, s.nerf_seconds, s.nerf_cpu_seconds, s.nerf_config});
         } else {
           throw core::Error("unknown source '" + source + "': use exact or nerf");
         }

@@ -8,6 +8,8 @@
 #include "demnerf/core/dataset.hpp"
 #include "demnerf/geometry/density_sampling.hpp"
 #include "demnerf/geometry/mesh_from_density.hpp"
+#include "demnerf/nerf/config.hpp"
+#include "demnerf/nerf/model_io.hpp"
 #include "demnerf/nerf/trainer.hpp"
 #include "demnerf/render/synthetic_scene.hpp"
 #include "mechanics_bench_common.hpp"
@@ -50,9 +52,11 @@ core::TriangleMesh nerfSurface(const NerfSurfaceConfig& config) {
     const render::SynthFigures made = render::generateSyntheticScene(synth);
     std::fprintf(stderr, "NeRF %s: synthesised %d views in %.1f s\n", config.scene.c_str(), made.views, made.seconds);
   }
-  // `demnerf train --seconds S` with the default NerfConfig.
+  // `demnerf train --seconds S [--config FILE]`.
   const core::Dataset dataset = core::loadDataset(data);
-  nerf::Trainer trainer(nerf::NerfConfig{}, nerf::datasetBox(dataset), dataset.aabb_scale);
+  const nerf::NerfConfig nerf_config =
+      config.nerf_config.empty() ? nerf::NerfConfig{} : nerf::loadNerfConfig(config.nerf_config);
+  nerf::Trainer trainer(nerf_config, nerf::datasetBox(dataset), dataset.aabb_scale);
   trainer.addFrames(dataset.train);
   nerf::TrainProgress progress;
   if (config.cpu_seconds > 0) {
@@ -83,6 +87,7 @@ core::TriangleMesh nerfSurface(const NerfSurfaceConfig& config) {
   std::fprintf(stderr, "NeRF %s: extracted %zu faces, volume %.6g m^3, closed %d\n", config.scene.c_str(),
                result.faces, result.volume, result.closed ? 1 : 0);
   fs::create_directories(config.work_dir);
+  nerf::saveModel(model, config.work_dir + "/model.nerf");
   core::writeMesh(cached, result.mesh);
   return result.mesh;
 }

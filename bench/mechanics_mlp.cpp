@@ -122,7 +122,8 @@ dm::DemConfig configFrom(const Arguments& a) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  dm::keepLargeAllocationsInHeap();
+  dm::keepLargeAllocationsInHeap();    // as the product's entry points do (tune_allocator)
+  dm::allowBlasThreadParking(true);    // as `demnerf simulate` does: one thread calls BLAS here
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   const Arguments a = bench::keyValueArguments(argc, argv);
   const std::string name = text(a, "scenario", "beam3d");
