@@ -12,18 +12,26 @@
 //       [--mu -0.53: Taubin's inflating step; other values run the same passes with that step, a
 //        filter that reaches longer bumps, outside the product (MeshRepairConfig has counts only)]
 //       [--rounded R: a control without NeRF noise: instead of the model, the exact body grown by
-//        R m (flat faces, edges rounded to radius R) through the same extraction]
-// (docs/mechanics_matrix_nerf.md, "A smoothed extraction").
+//        R m (flat faces, edges rounded to radius R) through the same extraction, and its closing
+//        with --solid-radius]
+//       [the extraction's other settings, as `demnerf extract` names them: --opacity 0.15,
+//        --threshold T (a density surface instead), --solid-radius R (m), --solid-cameras VIEWS
+//        --solid-views N (space carving against VIEWS' training cameras; needs --solid-radius)]
+// Each row also gives the extraction's CPU-s (the process's, all threads) and what the solid
+// step filled. (docs/mechanics_matrix_nerf.md, "A smoothed extraction" and "Extraction settings
+// and the body they give").
 
 #include <algorithm>
 #include <cmath>
 #include <memory>
 #include <cstdio>
+#include <ctime>
 #include <map>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "demnerf/core/dataset.hpp"
 #include "demnerf/core/ply.hpp"
 #include "demnerf/geometry/density_sampling.hpp"
 #include "demnerf/geometry/inside_test.hpp"
@@ -112,11 +120,32 @@ void printRoughness(const core::TriangleMesh& mesh, const bench::MatrixCase& mc,
   }
 }
 
+// The product's SurfaceConfig with the options' settings over it, checked as surfaceFlags and
+// parseSurfaceConfig check them (solid_views needs a closing radius; the cameras are the
+// dataset's training split, as `demnerf extract --solid-cameras` loads them).
+dem_nerf::SurfaceConfig surfaceSettings(const Options& options) {
+  dem_nerf::SurfaceConfig config;  // the product's: opacity 0.15 along the clearest axis
+  config.resolution = std::stoi(get(options, "resolution", "192"));
+  config.mesh.opacity = std::stod(get(options, "opacity", "0.15"));
+  if (options.count("threshold")) {
+    config.mesh.surface = geometry::SurfaceDefinition::kDensity;
+    config.mesh.threshold = std::stod(options.at("threshold"));
+  }
+  config.mesh.solid.radius = std::stod(get(options, "solid-radius", "0"));
+  if (!options.count("solid-cameras")) return config;
+  config.solid_views = std::stoi(get(options, "solid-views", "1"));
+  if (config.solid_views < 1 || config.mesh.solid.radius <= 0.0)
+    throw std::runtime_error("--solid-cameras needs --solid-views >= 1 and --solid-radius > 0");
+  core::DatasetOptions load;
+  load.load_images = false;
+  const std::string views = options.at("solid-cameras");
+  return dem_nerf::withTrainingCameras(config, core::loadDataset(views, load).train, views);
+}
+
 // The product's extraction with `passes` Taubin passes; with --mu, the same order (repair, smooth,
 // then the face budget) with that inflating step instead of MeshRepairConfig's.
 geometry::MeshExtractionResult extraction(const nerf::NerfModel& model, int passes, const Options& options) {
-  dem_nerf::SurfaceConfig config;  // the product's: opacity 0.15 along the clearest axis
-  config.resolution = std::stoi(get(options, "resolution", "192"));
+  dem_nerf::SurfaceConfig config = surfaceSettings(options);
   config.mesh.simplification.max_faces = std::stoul(get(options, "max-faces", "20000"));
   config.mesh.repair.smoothing_iterations = passes;
   if (!options.count("mu")) return dem_nerf::extractSurface(model, config);
@@ -151,6 +180,7 @@ geometry::MeshExtractionResult roundedBody(const core::TriangleMesh& truth, int 
   box.extend(box.min() - margin), box.extend(box.max() + margin);
   geometry::MeshExtractionConfig config;
   config.threshold = -std::stod(options.at("rounded"));
+  config.solid.radius = std::stod(get(options, "solid-radius", "0"));  // what the closing does to a true body
   config.repair.smoothing_iterations = passes;
   config.simplification.max_faces = std::stoul(get(options, "max-faces", "20000"));
   config.simplification.fast = true;
@@ -178,16 +208,22 @@ int main(int argc, char** argv) try {
   const bench::MatrixCase& mc = findCase(get(options, "scenario", "tbar_twist"));
   std::printf("exact surface: volume %.6g m^3, area %.5g m^2; rough rule: scatter > %.2f%% of the radius\n",
               exact.volume(), exact.area, 100 * dm::DemConfig{}.grid.rough_surface);
-  std::printf("%6s %7s %8s %8s %8s %8s %8s %9s\n", "smooth", "faces", "vol err", "area err", "chamfer", "p95", "p99",
-              "hausdorff");
+  std::printf("%6s %7s %8s %8s %8s %8s %8s %9s %6s\n", "smooth", "faces", "vol err", "area err", "chamfer", "p95",
+              "p99", "hausdorff", "cpu-s");
   for (const std::string& passes : bench::splitList(get(options, "smooth", "0,2,5,10"))) {
+    const std::clock_t start = std::clock();
     const geometry::MeshExtractionResult result = options.count("rounded")
                                                       ? roundedBody(truth, std::stoi(passes), options)
                                                       : extraction(*model, std::stoi(passes), options);
+    const double cpu_seconds = static_cast<double>(std::clock() - start) / CLOCKS_PER_SEC;
     const Deviation d = deviation(result.mesh, truth);
-    std::printf("%6s %7zu %+7.2f%% %+7.2f%% %6.3fmm %6.2fmm %6.2fmm %7.2fmm\n", passes.c_str(), result.faces,
+    std::printf("%6s %7zu %+7.2f%% %+7.2f%% %6.3fmm %6.2fmm %6.2fmm %7.2fmm %6.1f\n", passes.c_str(), result.faces,
                 100 * (result.volume / exact.volume() - 1), 100 * (result.area / exact.area - 1), 1e3 * d.chamfer,
-                1e3 * d.p95, 1e3 * d.p99, 1e3 * d.hausdorff);
+                1e3 * d.p95, 1e3 * d.p99, 1e3 * d.hausdorff, cpu_seconds);
+    const geometry::SolidReport& solid = result.solid;
+    std::printf("    genus %lld; solid fill (closing radius %.1f cells): %zu nodes closed, %zu carved (%zu in no "
+                "image), %zu cavity\n", result.topology.genus, solid.radius_cells, solid.closed_nodes,
+                solid.hidden_nodes, solid.unseen_nodes, solid.cavity_nodes);
     if (options.count("out")) core::writeMesh(options.at("out") + "/extracted_smooth" + passes + ".ply", result.mesh);
     printRoughness(result.mesh, mc, options);
     std::fflush(stdout);

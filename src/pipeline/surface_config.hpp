@@ -17,7 +17,9 @@ namespace dem_nerf {
 
 struct SurfaceConfig {
   /// Cubic cells along the longest side of the model's box (or of `box`). 192 is 2 mm on the
-  /// T-bar: volume within 1 % and ~340k faces in ~3 s; 256 is slower (~630k faces), no better.
+  /// T-bar: volume within 1 % and ~340k faces in ~3 s; 256 alone is slower (~630k faces), no
+  /// truer. With a closing (mesh.solid.radius 8 mm) 320 cells give a truer NeRF T-bar (Chamfer
+  /// ~1.07 -> 0.81 mm, area +8 -> +1.5 %): docs/mechanics_matrix_nerf.md, "Extraction settings".
   int resolution = 192;
   /// The surface: where the body reaches opacity 0.15 seen from outside (on the T-bar the volume
   /// within 3 %, where instant-ngp's density 2.5 gives +16 %), or a density level.
@@ -31,6 +33,8 @@ struct SurfaceConfig {
   /// a back). Needs mesh.solid.radius > 0, which shuts the slits grazing views leave, and excludes
   /// mesh.solid.behind. The cameras come from whoever trained the model (withTrainingCameras):
   /// `demnerf extract --solid-cameras DIR` the dataset's training split, nerf_node its keyframes.
+  /// It only fills: on a body seen all round (the synthetic T-bar's 48 views) it adds nothing to
+  /// the closing, and it cannot cut a NeRF's outward bumps.
   int solid_views = 0;
 
   static demnerf::geometry::MeshExtractionConfig renderedSurface() {
