@@ -11,6 +11,8 @@
 //       [--spacings 6,10,15] [--out DIR: writes DIR/extracted_smooth<N>.ply]
 //       [--mu -0.53: Taubin's inflating step; other values run the same passes with that step, a
 //        filter that reaches longer bumps, outside the product (MeshRepairConfig has counts only)]
+//       [--opacity 0.15: the surface's opacity seen from outside (the product's 0.15); others
+//        tell where the density edge lies, e.g. on a field trained with train.distortion]
 //       [--rounded R: a control without NeRF noise: instead of the model, the exact body grown by
 //        R m (flat faces, edges rounded to radius R) through the same extraction]
 // (docs/mechanics_matrix_nerf.md, "A smoothed extraction").
@@ -119,6 +121,7 @@ geometry::MeshExtractionResult extraction(const nerf::NerfModel& model, int pass
   config.resolution = std::stoi(get(options, "resolution", "192"));
   config.mesh.simplification.max_faces = std::stoul(get(options, "max-faces", "20000"));
   config.mesh.repair.smoothing_iterations = passes;
+  config.mesh.opacity = std::stod(get(options, "opacity", "0.15"));
   if (!options.count("mu")) return dem_nerf::extractSurface(model, config);
   const geometry::MeshSimplificationConfig budget = config.mesh.simplification;
   config.mesh.simplification.max_faces = 0;
