@@ -14,7 +14,8 @@
 //       [--rounded R: a control without NeRF noise: instead of the model, the exact body grown by
 //        R m (flat faces, edges rounded to radius R) through the same extraction, and its closing
 //        with --solid-radius]
-//       [the extraction's other settings, as `demnerf extract` names them: --opacity 0.15,
+//       [the extraction's other settings, as `demnerf extract` names them: --opacity 0.15 (others
+//        tell where the density edge lies, e.g. on a field trained with train.distortion),
 //        --threshold T (a density surface instead), --solid-radius R (m), --solid-cameras VIEWS
 //        --solid-views N (space carving against VIEWS' training cameras; needs --solid-radius)]
 // Each row also gives the extraction's CPU-s (the process's, all threads) and what the solid

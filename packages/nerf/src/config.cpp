@@ -70,6 +70,7 @@ std::vector<Entry> entries(NerfConfig& c) {
       {"train", "gradient_min_transmittance", &c.train.gradient_min_transmittance},
       {"train", "density_prior", &c.train.density_prior},
       {"train", "density_prior_per_ray", &c.train.density_prior_per_ray},
+      {"train", "distortion", &c.train.distortion},
       {"train", "loss", &c.train.loss},
       {"train", "huber_delta", &c.train.huber_delta},
       {"train", "random_background", &c.train.random_background},
@@ -126,6 +127,7 @@ void NerfConfig::validate() const {
   check(train.density_prior >= 0 && std::isfinite(train.density_prior), "train.density_prior must be >= 0");
   check(train.density_prior_per_ray >= 1 && train.density_prior_per_ray <= 4,
         "train.density_prior_per_ray must be in [1, 4], got " + std::to_string(train.density_prior_per_ray));
+  check(train.distortion >= 0 && std::isfinite(train.distortion), "train.distortion must be >= 0");
   check(train.loss == "l2" || train.loss == "huber", "train.loss must be 'l2' or 'huber', got '" + train.loss + "'");
   check(train.threads >= 0, "train.threads must be >= 0");
   for (double b : background) check(b >= 0 && b <= 1, "background components must be in [0, 1]");

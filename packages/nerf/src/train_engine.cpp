@@ -52,7 +52,9 @@ void compositeRound(Worker& st, int rays, std::size_t first_piece, float min_t) 
         continue;
       }
       pc.t_before[i] = a.transmittance;
-      a.add(pc.sigma[i], pc.dt[i], pc.rgb + 3 * i, st.round.t[s]);
+      const float w = a.add(pc.sigma[i], pc.dt[i], pc.rgb + 3 * i, st.round.t[s]);
+      if (st.distortion_grad != 0.0f)
+        st.dist[j].add(w, st.round.t[s], pc.dt[i], st.distortion_inv_unit, pc.dist_upto + 4 * i);
       std::copy(a.color, a.color + 3, pc.c_upto + 3 * i);
       pc.ray[i] = j;
       ++st.samples;
@@ -84,6 +86,7 @@ void marchBlock(const NerfModel& model, const TrainRays& batch, Worker& st, std:
     startRay(model.march(), model.bounds(), batch.origins.data() + 3 * r, batch.directions.data() + 3 * r,
              batch.jitter[r], st.cursors[j]);
     st.acc[j] = RayAccum();
+    st.dist[j] = DistortionAccum();
   }
   st.used = 0;
   const int per_round = model.config().march.samples_per_round;
@@ -108,6 +111,7 @@ void blockLoss(const TrainConfig& train, const TrainRays& batch, Worker& st, std
     const std::int64_t r = first + j;
     const float* target = batch.target.data() + 4 * r;
     st.acc[j].finish(batch.background.data() + 3 * r, st.total_color[j]);
+    st.loss += 3.0 * train.distortion * st.dist[j].loss();  // step() divides by 3 x rays
     for (int k = 0; k < 3; ++k) {
       const float bg = batch.background[3 * r + k];
       const float want = target[k] * target[3] + bg * (1.0f - target[3]);
@@ -146,6 +150,10 @@ void selectAndCompact(const NgpField& field, Worker& st, Piece& pc, float min_t,
     for (int k = 0; k < 3; ++k) pc.g_rgb[3 * kept + k] = st.grad_color[j][k] * w;
     pc.g_sigma[kept] = colorSigmaGradient(st.grad_color[j], pc.rgb + 3 * i, t_next, st.total_color[j],
                                           pc.c_upto + 3 * i) * pc.dt[i];
+    if (st.distortion_grad != 0.0f)
+      pc.g_sigma[kept] += st.distortion_grad * pc.dt[i] *
+                          distortionSigmaGradient(st.dist[j], pc.dist_upto + 4 * i, w, pc.dt[i], t_next,
+                                                  st.distortion_inv_unit);
     st.keep[kept++] = i;
   }
   pc.kept = kept;
@@ -278,6 +286,9 @@ void TrainEngine::runPasses(const TrainRays& batch) {
     for (std::int64_t w = wbegin; w < wend; ++w) {
       Worker& st = *threads_[w];
       st.reset();
+      // train.distortion: the mean over the batch's rays of L in units of the box diagonal.
+      st.distortion_grad = static_cast<float>(train.distortion / std::max<std::int64_t>(1, n));
+      st.distortion_inv_unit = 1.0f / (model_.march().min_step * model_.config().march.steps_per_diagonal);
       double p1 = 0, p2 = 0;
       for (std::int64_t b = next++; b < block_count_; b = next++) {
         BlockResult& block = *blocks_[b];

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "demnerf/nerf/compositing.hpp"
+#include "demnerf/nerf/distortion.hpp"
 #include "demnerf/nerf/model.hpp"
 #include "march_round.hpp"
 
@@ -28,6 +29,7 @@ struct Piece {
   float unit[3 * NgpField::kChunk], dirs[3 * NgpField::kChunk];
   float dt[NgpField::kChunk], sigma[NgpField::kChunk], rgb[3 * NgpField::kChunk];
   float t_before[NgpField::kChunk], c_upto[3 * NgpField::kChunk];
+  float dist_upto[4 * NgpField::kChunk];  ///< DistortionAccum::add's record (train.distortion > 0 only)
   int ray[NgpField::kChunk];  ///< block ray; -1 when the ray was opaque before this sample; kPriorPoint
   int kept = 0;               ///< samples the backward takes (moved to rows 0..kept)
   float g_sigma[NgpField::kChunk], g_rgb[3 * NgpField::kChunk];  ///< theirs, in that order
@@ -58,6 +60,9 @@ struct Worker {
   std::int64_t samples = 0, marched = 0;
   std::vector<RayCursor> cursors = std::vector<RayCursor>(kTrainBlock);
   std::vector<RayAccum> acc = std::vector<RayAccum>(kTrainBlock);
+  DistortionAccum dist[kTrainBlock];
+  // train.distortion: d(loss)/d(a ray's L) (0: off, nothing recorded) and 1 / L's distance unit.
+  float distortion_grad = 0.0f, distortion_inv_unit = 0.0f;
   float grad_color[kTrainBlock][3], total_color[kTrainBlock][3];
   int keep[NgpField::kChunk];
 

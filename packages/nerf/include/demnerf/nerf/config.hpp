@@ -87,6 +87,13 @@ struct TrainConfig {
   /// 0: off (docs/nerf_real_captures.md, "seventh step").
   double density_prior = 0.0;
   int density_prior_per_ray = 2;  ///< 1..4 (a block's prior points fill at most one chunk)
+  /// Weight of mip-NeRF 360's distortion loss (distortion.hpp): distortion * the mean over the
+  /// batch's rays of sum_ij w_i w_j |s_i - s_j| + 1/3 sum_i w_i^2 ds_i, distances in box
+  /// diagonals. It concentrates each ray's weight in a short stretch, for a sharper density
+  /// edge than the colour alone gives (docs/mechanics_matrix_nerf.md, "A sharper density edge":
+  /// 0.01-0.03 gave a slightly truer T-bar; the fox gained at 0.003-0.01 and failed at 0.03).
+  /// 0: off.
+  double distortion = 0.0;
   std::string loss = "l2";                 ///< l2 | huber
   double huber_delta = 0.1;
   bool random_background = true;           ///< for RGBA data (instant-ngp): new colour per ray
