@@ -12,48 +12,19 @@
 #include "demnerf/core/error.hpp"
 #include "demnerf/nerf/evaluate.hpp"
 #include "demnerf/nerf/trainer.hpp"
+#include "ball_view.hpp"
 
 namespace demnerf::nerf {
 namespace {
 
-constexpr double kRadius = 0.4;
-
-/// A camera at `eye` looking at the origin (optical frame), size x size pixels.
-core::Frame lookAtOrigin(const Eigen::Vector3d& eye, int size) {
-  core::Frame frame;
-  frame.camera.width = frame.camera.height = size;
-  frame.camera.fx = frame.camera.fy = size * 1.1;
-  frame.camera.cx = frame.camera.cy = size / 2.0;
-  const Eigen::Vector3d z = (-eye).normalized();
-  const Eigen::Vector3d x = z.cross(Eigen::Vector3d::UnitZ()).normalized();
-  frame.world_from_camera.linear() << x, z.cross(x), z;
-  frame.world_from_camera.translation() = eye;
-  frame.rgba.create(size, size, CV_32FC4);
-  frame.has_alpha = true;
-  for (int v = 0; v < size; ++v)
-    for (int u = 0; u < size; ++u) {  // an opaque ball, coloured by its normal, on a transparent background
-      const Eigen::Vector3d d = (frame.world_from_camera.linear() *
-                                 Eigen::Vector3d((u + 0.5 - size / 2.0) / frame.camera.fx,
-                                                 (v + 0.5 - size / 2.0) / frame.camera.fy, 1.0)).normalized();
-      const double b = eye.dot(d), disc = b * b - (eye.squaredNorm() - kRadius * kRadius);
-      cv::Vec4f pixel(0, 0, 0, 0);
-      if (disc > 0) {
-        const Eigen::Vector3f n = (eye + (-b - std::sqrt(disc)) * d).normalized().cast<float>();
-        pixel = cv::Vec4f(0.5f + 0.4f * n.x(), 0.5f + 0.4f * n.y(), 0.5f + 0.4f * n.z(), 1.0f);
-      }
-      frame.rgba.at<cv::Vec4f>(v, u) = pixel;
-    }
-  return frame;
-}
-
 /// Views from a 30 degree cone around +x only: the far side of the ball and the box behind it
-/// (x < -kRadius near the axis) are seen by no camera.
+/// (x < -test::kBallRadius near the axis) are seen by no camera.
 std::vector<core::Frame> frontViews(int count, double phase) {
   std::vector<core::Frame> frames;
   for (int i = 0; i < count; ++i) {
     const double tilt = 0.5 * (i + 0.5) / count, turn = 2.399963 * i + phase;
     const Eigen::Vector3d dir(std::cos(tilt), std::sin(tilt) * std::cos(turn), std::sin(tilt) * std::sin(turn));
-    frames.push_back(lookAtOrigin(2.2 * dir, 32));
+    frames.push_back(test::ballViewFrom(2.2 * dir, 32));
   }
   return frames;
 }

@@ -12,6 +12,7 @@
 #include "demnerf/core/error.hpp"
 #include "demnerf/nerf/distortion.hpp"
 #include "demnerf/nerf/trainer.hpp"
+#include "ball_view.hpp"
 
 namespace demnerf::nerf {
 namespace {
@@ -97,39 +98,12 @@ TEST(Distortion, DoesNotDependOnTheRaysOrigin) {
   EXPECT_NEAR(lossFrom(25.0), lossFrom(0.0), 1e-4 * lossFrom(0.0));
 }
 
-constexpr double kRadius = 0.4;
-
-/// Views of an opaque ball coloured by its normal on a transparent background, from all round.
+/// Views of test::ballViewFrom's ball from all round.
 std::vector<core::Frame> ballViews(int count, int size) {
   std::vector<core::Frame> frames;
   for (int i = 0; i < count; ++i) {
     const double z = 1.0 - 2.0 * (i + 0.5) / count, turn = 2.399963 * i, rho = std::sqrt(1.0 - z * z);
-    const Eigen::Vector3d eye = 2.0 * Eigen::Vector3d(rho * std::cos(turn), rho * std::sin(turn), z);
-    core::Frame frame;
-    frame.camera.width = frame.camera.height = size;
-    frame.camera.fx = frame.camera.fy = size * 1.1;
-    frame.camera.cx = frame.camera.cy = size / 2.0;
-    const Eigen::Vector3d zc = (-eye).normalized();
-    const Eigen::Vector3d up = std::fabs(zc.z()) > 0.95 ? Eigen::Vector3d::UnitY() : Eigen::Vector3d::UnitZ();
-    const Eigen::Vector3d xc = zc.cross(up).normalized();
-    frame.world_from_camera.linear() << xc, zc.cross(xc), zc;
-    frame.world_from_camera.translation() = eye;
-    frame.rgba.create(size, size, CV_32FC4);
-    frame.has_alpha = true;
-    for (int v = 0; v < size; ++v)
-      for (int u = 0; u < size; ++u) {
-        const Eigen::Vector3d d = (frame.world_from_camera.linear() *
-                                   Eigen::Vector3d((u + 0.5 - size / 2.0) / frame.camera.fx,
-                                                   (v + 0.5 - size / 2.0) / frame.camera.fy, 1.0)).normalized();
-        const double b = eye.dot(d), disc = b * b - (eye.squaredNorm() - kRadius * kRadius);
-        cv::Vec4f pixel(0, 0, 0, 0);
-        if (disc > 0) {
-          const Eigen::Vector3f n = (eye + (-b - std::sqrt(disc)) * d).normalized().cast<float>();
-          pixel = cv::Vec4f(0.5f + 0.4f * n.x(), 0.5f + 0.4f * n.y(), 0.5f + 0.4f * n.z(), 1.0f);
-        }
-        frame.rgba.at<cv::Vec4f>(v, u) = pixel;
-      }
-    frames.push_back(frame);
+    frames.push_back(test::ballViewFrom(2.0 * Eigen::Vector3d(rho * std::cos(turn), rho * std::sin(turn), z), size));
   }
   return frames;
 }
