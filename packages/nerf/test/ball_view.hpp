@@ -1,5 +1,5 @@
 #pragma once
-// A training view for the nerf tests that need a known body: an opaque ball at the origin,
+// What the nerf tests that need a known body train on: an opaque ball at the origin,
 // coloured by its normal, on a transparent background (test_density_prior.cpp, test_distortion.cpp).
 
 #include <Eigen/Geometry>
@@ -7,6 +7,7 @@
 #include <opencv2/core.hpp>
 
 #include "demnerf/core/dataset.hpp"
+#include "demnerf/nerf/config.hpp"
 
 namespace demnerf::nerf::test {
 
@@ -39,6 +40,17 @@ inline core::Frame ballViewFrom(const Eigen::Vector3d& eye, int size) {
       frame.rgba.at<cv::Vec4f>(v, u) = pixel;
     }
   return frame;
+}
+
+/// A field small enough to learn the ball in a test's seconds.
+inline NerfConfig smallBallConfig() {
+  NerfConfig c;
+  c.hash.levels = 8;
+  c.hash.log2_table_size = 14;
+  c.hash.finest_resolution = 128;
+  c.occupancy.resolution = 32;
+  c.train.target_samples = 1 << 13;
+  return c;
 }
 
 }  // namespace demnerf::nerf::test

@@ -31,12 +31,7 @@ std::vector<core::Frame> frontViews(int count, double phase) {
 
 /// The fox's training settings on a small field: rays stop, and gradients end, at 1 % light.
 NerfConfig stoppingConfig(double prior) {
-  NerfConfig c;
-  c.hash.levels = 8;
-  c.hash.log2_table_size = 14;
-  c.hash.finest_resolution = 128;
-  c.occupancy.resolution = 32;
-  c.train.target_samples = 1 << 13;
+  NerfConfig c = test::smallBallConfig();
   c.train.min_rays = 256;
   c.train.gradient_min_transmittance = 0.01;
   c.march.min_transmittance = 0.01;

@@ -109,12 +109,7 @@ std::vector<core::Frame> ballViews(int count, int size) {
 }
 
 NerfConfig smallConfig(double distortion) {
-  NerfConfig c;
-  c.hash.levels = 8;
-  c.hash.log2_table_size = 14;
-  c.hash.finest_resolution = 128;
-  c.occupancy.resolution = 32;
-  c.train.target_samples = 1 << 13;
+  NerfConfig c = test::smallBallConfig();
   c.train.distortion = distortion;
   return c;
 }
