@@ -119,6 +119,36 @@ TEST(HeldFace, RegionsWithoutADominantFaceHoldTheirVolume) {
   EXPECT_NEAR(cluster.normal.x(), -1.0, 1e-12);
 }
 
+// A rough face (a NeRF extraction's base): a sawtooth 3 mm deep, rising over 9 mm and falling over
+// 3 mm, sampled evenly with equal areas, as the samplers do. Three quarters of the samples sit on
+// the gentle slopes, so their normals lean 18 degrees and the steep ones fall out of the cluster:
+// the mean normal leaned the face by as much (one side of the base unheld). The plane through the
+// samples' positions is the face's: level within the sawtooth's phase.
+TEST(HeldFace, ARoughFaceIsHeldOnThePlaneOfItsPointsNotItsMeanNormal) {
+  std::vector<Vector3d> points, normals;
+  std::vector<double> areas;
+  for (int i = 0; i < 10; ++i)
+    for (int j = 0; j < 60; ++j) {
+      const double y = (j + 0.5) * 1e-3, phase = std::fmod(y, 0.012);
+      const bool rising = phase < 0.009;
+      const double slope = rising ? 1.0 / 3.0 : -1.0;
+      const double z = rising ? phase / 3.0 : 0.003 - (phase - 0.009);
+      points.emplace_back((i + 0.5) * 6e-3, y, z);
+      normals.push_back(Vector3d(0.0, slope, -1.0).normalized());  // outward (down) from the body above
+      areas.push_back(6e-6);
+    }
+  const dm::FaceCluster cluster = dm::dominantFace(normals, areas);
+  EXPECT_GT(std::abs(cluster.normal.y()), 0.2) << "the samples' normals lean (what the plane fit corrects)";
+  const core::Region base = box(Vector3d(0.03, 0.03, 0.0), Vector3d(0.08, 0.08, 0.01));
+  const dm::HeldFace face = dm::fitHeldFace(base, points, normals, areas);
+  ASSERT_TRUE(face.valid);
+  EXPECT_LT(std::abs(face.normal.y()), 0.02);  // 0.0075: the phase of 5 whole periods
+  EXPECT_LT(std::abs(face.normal.x()), 1e-9);
+  EXPECT_LT(face.normal.z(), -0.999);
+  EXPECT_GT(face.point.z(), 0.0);  // on the sawtooth's mean height, not below the body
+  EXPECT_LT(face.point.z(), 0.003);
+}
+
 TEST(HeldFace, FemThickBandsClampFacesSoTheStretchStaysHomogeneous) {
   const core::Scenario s = thickBandStretch();
   // 4 x 4 x 4 TET10: the bands (0.15 deep) hold the mid-edge nodes 0.125 in from each face.
