@@ -62,7 +62,7 @@ TEST(SolverConfig, GaussNewtonFileTurnsTheMlpPresetIntoGaussNewtonSteps) {
   EXPECT_EQ(o.dem.gauss_newton.steps, 150);  // a cap: the steps stop once converged
   EXPECT_DOUBLE_EQ(o.dem.gauss_newton.tolerance, 2e-3);
   EXPECT_EQ(o.dem.gauss_newton.window, 10);
-  EXPECT_DOUBLE_EQ(o.dem.gauss_newton.recheck_tolerance, 5e-4);  // a refused converged answer goes on
+  EXPECT_DOUBLE_EQ(o.dem.gauss_newton.recheck_tolerance, 3e-4);  // a refused converged answer goes on
   EXPECT_EQ(dm::SimulateOptions{}.dem.gauss_newton.recheck_tolerance, 0.0);
   EXPECT_EQ(o.dem.gauss_newton.sample, 500);
   EXPECT_TRUE(o.dem.gauss_newton.spread);
