@@ -14,10 +14,10 @@
 //       [--rounded R: a control without NeRF noise: instead of the model, the exact body grown by
 //        R m (flat faces, edges rounded to radius R) through the same extraction, and its closing
 //        with --solid-radius]
-//       [the extraction's other settings, as `demnerf extract` names them: --opacity 0.15 (others
-//        tell where the density edge lies, e.g. on a field trained with train.distortion),
-//        --threshold T (a density surface instead), --solid-radius R (m), --solid-cameras VIEWS
-//        --solid-views N (space carving against VIEWS' training cameras; needs --solid-radius)]
+//       [any other of `demnerf extract`'s surface flags, read and checked by its own parser: e.g.
+//        --opacity 0.15 (others tell where the density edge lies, e.g. on a field trained with
+//        train.distortion), --threshold T (a density surface instead), --solid-radius R (m),
+//        --solid-cameras VIEWS --solid-views N (space carving against VIEWS' training cameras)]
 // Each row also gives the extraction's CPU-s (the process's, all threads) and what the solid
 // step filled. (docs/mechanics_matrix_nerf.md, "A smoothed extraction" and "Extraction settings
 // and the body they give").
@@ -32,7 +32,6 @@
 #include <string>
 #include <vector>
 
-#include "demnerf/core/dataset.hpp"
 #include "demnerf/core/ply.hpp"
 #include "demnerf/geometry/density_sampling.hpp"
 #include "demnerf/geometry/inside_test.hpp"
@@ -42,6 +41,8 @@
 #include "demnerf/geometry/particle_sampler.hpp"
 #include "demnerf/mechanics/dem_solver.hpp"
 #include "demnerf/nerf/model_io.hpp"
+#include "cli/arguments.hpp"
+#include "cli/surface_flags.hpp"
 #include "dem_config_check.hpp"
 #include "mechanics_matrix_cases.hpp"
 #include "mechanics_matrix_report.hpp"
@@ -121,32 +122,20 @@ void printRoughness(const core::TriangleMesh& mesh, const bench::MatrixCase& mc,
   }
 }
 
-// The product's SurfaceConfig with the options' settings over it, checked as surfaceFlags and
-// parseSurfaceConfig check them (solid_views needs a closing radius; the cameras are the
-// dataset's training split, as `demnerf extract --solid-cameras` loads them).
+// The product's SurfaceConfig from `demnerf extract`'s own flags and checks (cli::surfaceFlags,
+// --solid-cameras loading the training split as the CLI does). --smooth is this bench's list of
+// pass counts and --max-faces its own default (20000), both set per extraction below.
 dem_nerf::SurfaceConfig surfaceSettings(const Options& options) {
-  dem_nerf::SurfaceConfig config;  // the product's: opacity 0.15 along the clearest axis
-  config.resolution = std::stoi(get(options, "resolution", "192"));
-  config.mesh.opacity = std::stod(get(options, "opacity", "0.15"));
-  if (options.count("threshold")) {
-    config.mesh.surface = geometry::SurfaceDefinition::kDensity;
-    config.mesh.threshold = std::stod(options.at("threshold"));
-  }
-  config.mesh.solid.radius = std::stod(get(options, "solid-radius", "0"));
-  if (!options.count("solid-cameras")) return config;
-  config.solid_views = std::stoi(get(options, "solid-views", "1"));
-  if (config.solid_views < 1 || config.mesh.solid.radius <= 0.0)
-    throw std::runtime_error("--solid-cameras needs --solid-views >= 1 and --solid-radius > 0");
-  core::DatasetOptions load;
-  load.load_images = false;
-  const std::string views = options.at("solid-cameras");
-  return dem_nerf::withTrainingCameras(config, core::loadDataset(views, load).train, views);
+  std::vector<std::string> tokens;
+  for (const auto& [key, value] : options)
+    if (key != "smooth" && cli::surfaceFlagNames().count(key)) tokens.insert(tokens.end(), {"--" + key, value});
+  return cli::surfaceFlags(cli::Arguments(tokens, {}));
 }
 
 // The product's extraction with `passes` Taubin passes; with --mu, the same order (repair, smooth,
 // then the face budget) with that inflating step instead of MeshRepairConfig's.
-geometry::MeshExtractionResult extraction(const nerf::NerfModel& model, int passes, const Options& options) {
-  dem_nerf::SurfaceConfig config = surfaceSettings(options);
+geometry::MeshExtractionResult extraction(const nerf::NerfModel& model, int passes, const Options& options,
+                                          dem_nerf::SurfaceConfig config) {
   config.mesh.simplification.max_faces = std::stoul(get(options, "max-faces", "20000"));
   config.mesh.repair.smoothing_iterations = passes;
   if (!options.count("mu")) return dem_nerf::extractSurface(model, config);
@@ -207,6 +196,7 @@ int main(int argc, char** argv) try {
   const core::TriangleMesh truth = core::readMesh(options.at("truth"));
   const geometry::MeshSummary exact = geometry::analyzeMesh(truth);
   const bench::MatrixCase& mc = findCase(get(options, "scenario", "tbar_twist"));
+  const dem_nerf::SurfaceConfig surface = surfaceSettings(options);  // once: --solid-cameras loads a dataset
   std::printf("exact surface: volume %.6g m^3, area %.5g m^2; rough rule: scatter > %.2f%% of the radius\n",
               exact.volume(), exact.area, 100 * dm::DemConfig{}.grid.rough_surface);
   std::printf("%6s %7s %8s %8s %8s %8s %8s %9s %6s\n", "smooth", "faces", "vol err", "area err", "chamfer", "p95",
@@ -215,7 +205,7 @@ int main(int argc, char** argv) try {
     const std::clock_t start = std::clock();
     const geometry::MeshExtractionResult result = options.count("rounded")
                                                       ? roundedBody(truth, std::stoi(passes), options)
-                                                      : extraction(*model, std::stoi(passes), options);
+                                                      : extraction(*model, std::stoi(passes), options, surface);
     const double cpu_seconds = static_cast<double>(std::clock() - start) / CLOCKS_PER_SEC;
     const Deviation d = deviation(result.mesh, truth);
     std::printf("%6s %7zu %+7.2f%% %+7.2f%% %6.3fmm %6.2fmm %6.2fmm %7.2fmm %6.1f\n", passes.c_str(), result.faces,
