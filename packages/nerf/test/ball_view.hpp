@@ -1,6 +1,7 @@
 #pragma once
 // What the nerf tests that need a known body train on: an opaque ball at the origin,
-// coloured by its normal, on a transparent background (test_density_prior.cpp, test_distortion.cpp).
+// coloured by its normal, on a transparent background (test_density_prior.cpp, test_distortion.cpp),
+// and the small field they and test_training.cpp train.
 
 #include <Eigen/Geometry>
 #include <cmath>

@@ -19,6 +19,7 @@
 #include "demnerf/nerf/model_io.hpp"
 #include "demnerf/nerf/renderer.hpp"
 #include "demnerf/nerf/trainer.hpp"
+#include "ball_view.hpp"
 
 namespace demnerf::nerf {
 namespace {
@@ -78,13 +79,7 @@ std::vector<core::Frame> sphereViews(int count, int size, double phase) {
 }
 
 NerfConfig tinyConfig() {
-  NerfConfig c;
-  c.hash.levels = 8;
-  c.hash.log2_table_size = 14;
-  c.hash.finest_resolution = 128;
-  c.field.density_hidden = 32;
-  c.field.color_hidden = 32;
-  c.occupancy.resolution = 32;
+  NerfConfig c = test::smallBallConfig();  // 32-wide MLPs, FieldConfig's defaults
   c.train.target_samples = 1 << 14;
   return c;
 }
