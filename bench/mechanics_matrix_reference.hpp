@@ -95,8 +95,11 @@ inline Reference referenceFem(const core::ParticleCloud& cloud, const core::Scen
   o.control.time_limit = time_limit;
   o.control.progress_interval = 10.0;
   o.control.progress = [](const mechanics::SolveProgress& p) {
-    std::fprintf(stderr, "    reference %s: load %.3f it %d residual %.2e, %.0f s\n", p.phase.c_str(), p.load_fraction,
-                 p.iteration, p.residual, p.elapsed);
+    // Before the first Newton step (the "meshed" report) there is no residual yet: print "-", as demnerf does.
+    char residual[32] = "-";
+    if (std::isfinite(p.residual)) std::snprintf(residual, sizeof residual, "%.2e", p.residual);
+    std::fprintf(stderr, "    reference %s: load %.3f it %d residual %s, %.0f s\n", p.phase.c_str(), p.load_fraction,
+                 p.iteration, residual, p.elapsed);
   };
   const auto start = std::chrono::steady_clock::now();
   try {
