@@ -121,12 +121,14 @@ TEST(GridTransfer, ContinuesAFieldOntoNodesItsPointsDidNotSee) {
   }
   const Eigen::MatrixXd solved = C;
   double before = 0.0;
-  for (const Eigen::Vector3d& x : targets) before = std::max(before, (field(grid, C, x) - field(grid, exact, x)).norm());
+  for (const Eigen::Vector3d& x : targets)
+    before = std::max(before, (field(grid, C, x) - field(grid, exact, x)).norm());
   EXPECT_GT(before, 0.1);  // the zeros are far off: the test would fail without the continuation
   const long continued = continueUnseenNodes(grid, C, points, weights, targets, 0.25);
   EXPECT_GT(continued, 0);
   double after = 0.0;
-  for (const Eigen::Vector3d& x : targets) after = std::max(after, (field(grid, C, x) - field(grid, exact, x)).norm());
+  for (const Eigen::Vector3d& x : targets)
+    after = std::max(after, (field(grid, C, x) - field(grid, exact, x)).norm());
   EXPECT_LT(after, 1e-9);
   // The solved nodes are left as they were, and nodes no target reaches (beyond x = 0.9) too.
   for (long a = 0; a < grid.nodeCount(); ++a)
