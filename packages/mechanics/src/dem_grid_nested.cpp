@@ -9,8 +9,9 @@
 //
 // Each coarse level solves for a correction C_k to the current field (the fine grid's share is in
 // the level's offset, frozen), starting at zero, so no level can leave a worse state than it found;
-// the correction is then moved onto the fine grid by weighted least squares at the fine grid's
-// quadrature points (grid_transfer.hpp) and added to its coefficients.
+// the correction is then continued onto the coarse nodes only the fine grid's points reach (the
+// level's own points never saw them), moved onto the fine grid by weighted least squares at the
+// fine grid's quadrature points (grid_transfer.hpp) and added to its coefficients.
 #include <torch/torch.h>
 
 #include <algorithm>
@@ -29,6 +30,9 @@ using torch_support::toTensor;
 
 namespace {
 constexpr int kCoarseIterations = 16;  // Newton iterations of a coarse level
+// The fill of the cells a coarse level's field is continued from (continueUnseenNodes) when the
+// extension is off: the extension's default.
+constexpr double kContinuationFill = 0.25;
 }  // namespace
 
 // The coarse grids over the fine grid's box (lo, hi), coarsest first.
@@ -110,6 +114,12 @@ void DemSolver::Impl::solveCoarseLevels(double scale, int& iterations) {
                 << " weak unknowns held; assembly "
                 << outcome.assembly_seconds << " s, factorisation " << outcome.factorisation_seconds << " s\n";
     if (outcome.iterations == 0) continue;
+    // The fine grid sees more of a ragged body than the level (whose cut cells are not split): the
+    // level's field is continued onto the nodes only the fine points reach before it is moved.
+    const double fill = config.grid.extension_fill > 0 ? config.grid.extension_fill : kContinuationFill;
+    const long continued = continueUnseenNodes(*level.grid, C, level.points, level.volume, gq_points, fill);
+    if (config.verbose && continued > 0)
+      std::cerr << "dem: nested level's field continued onto " << continued << " nodes it did not see\n";
     // The Newton's unknowns are in metres (c C): the grid's parameter is in units of the output scale.
     const Eigen::MatrixXd moved = transferGridField(*level.grid, C, *grid, gq_points, gq_volume);
     setGridCoefficients(toEigen(grid_coef.detach()) + moved / out_scale);

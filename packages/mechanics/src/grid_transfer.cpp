@@ -4,9 +4,11 @@
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <algorithm>
+#include <cmath>
 #include <string>
 
 #include "demnerf/core/error.hpp"
+#include "demnerf/mechanics/bspline_extension.hpp"
 #include "supernodal_cholesky.hpp"
 
 namespace demnerf::mechanics {
@@ -102,6 +104,76 @@ Eigen::MatrixXd transferGridField(const BsplineGrid& from, const Eigen::MatrixXd
   const Eigen::MatrixXd solved = solveMass(M, b);
   for (long a = 0; a < n; ++a) C.row(active[a]) = solved.row(a);
   return C;
+}
+
+namespace {
+
+// The nodes of the cells that hold one of `points` ("seen", 1) and, of the cells that hold a target
+// but no point, the other nodes (2); with each cell's fill by the points. One basis evaluation per
+// cell: a cell's points share their nodes.
+std::vector<char> nodeStates(const BsplineGrid& grid, const std::vector<Eigen::Vector3d>& points,
+                             const std::vector<double>& weights, const std::vector<Eigen::Vector3d>& targets,
+                             std::vector<double>& cell_fill) {
+  cell_fill.assign(static_cast<std::size_t>(grid.cells().cast<long>().prod()), 0.0);
+  std::vector<const Eigen::Vector3d*> seen_in(cell_fill.size(), nullptr), reached_in(cell_fill.size(), nullptr);
+  const double cell_volume = std::pow(grid.cell(), 3);
+  for (std::size_t q = 0; q < points.size(); ++q)
+    if (weights[q] > 0) {
+      const long cell = grid.cellIndex(points[q]);
+      cell_fill[cell] += weights[q] / cell_volume;
+      seen_in[cell] = &points[q];
+    }
+  for (const Eigen::Vector3d& x : targets) reached_in[grid.cellIndex(x)] = &x;
+  const int S = grid.supportSize();
+  std::vector<long> support(S);
+  std::vector<double> N(S);
+  std::vector<Eigen::Vector3d> unused(S);
+  std::vector<char> state(grid.nodeCount(), 0);
+  for (const auto* x : seen_in)
+    if (x) {
+      grid.evaluate(*x, support.data(), N.data(), unused.data());
+      for (long a : support) state[a] = 1;
+    }
+  for (std::size_t cell = 0; cell < reached_in.size(); ++cell)
+    if (reached_in[cell] && !seen_in[cell]) {
+      grid.evaluate(*reached_in[cell], support.data(), N.data(), unused.data());
+      for (long a : support)
+        if (state[a] == 0) state[a] = 2;
+    }
+  return state;
+}
+
+}  // namespace
+
+long continueUnseenNodes(const BsplineGrid& grid, Eigen::MatrixXd& C, const std::vector<Eigen::Vector3d>& points,
+                         const std::vector<double>& weights, const std::vector<Eigen::Vector3d>& targets, double fill) {
+  if (C.rows() != grid.nodeCount() || C.cols() != 3 || points.size() != weights.size())
+    throw core::Error("grid continuation: C must be nodeCount x 3 and the points as many as their weights");
+  std::vector<double> cell_fill;
+  const std::vector<char> state = nodeStates(grid, points, weights, targets, cell_fill);
+  if (std::find(state.begin(), state.end(), 2) == state.end()) return 0;
+  std::vector<long> nodes;
+  for (long a = 0; a < grid.nodeCount(); ++a)
+    if (state[a] != 0) nodes.push_back(a);
+  const BsplineExtension ext = extendOuterNodes(grid, nodes, cell_fill, fill);
+  // An extrapolated row reads the nodes of a filled cell, which its points see: the continued
+  // values come from solved coefficients alone. A kept row (no filled cell within reach) is left.
+  const Eigen::SparseMatrix<double, Eigen::RowMajor> map = ext.map;
+  long continued = 0;
+  for (Eigen::Index l = 0; l < map.outerSize(); ++l) {
+    if (state[nodes[l]] != 2) continue;
+    Eigen::Vector3d value = Eigen::Vector3d::Zero();
+    bool extrapolated = false;
+    for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(map, l); it; ++it) {
+      const long from = nodes[ext.kept[it.col()]];
+      extrapolated |= from != nodes[l];
+      value += it.value() * C.row(from).transpose();
+    }
+    if (!extrapolated) continue;
+    C.row(nodes[l]) = value.transpose();
+    ++continued;
+  }
+  return continued;
 }
 
 }  // namespace demnerf::mechanics

@@ -18,4 +18,16 @@ namespace demnerf::mechanics {
 Eigen::MatrixXd transferGridField(const BsplineGrid& from, const Eigen::MatrixXd& C_from, const BsplineGrid& to,
                                   const std::vector<Eigen::Vector3d>& points, const std::vector<double>& weights);
 
+/// Continues a grid's field C onto the nodes that the `targets` reach but its own quadrature
+/// (`points`, `weights`) never saw, whose coefficients its Newton left at 0: each such node gets
+/// the extension's Lagrange extrapolation (bspline_extension.hpp) from the nearest cell filled to
+/// `fill`, the value the field's polynomial continuation gives it. Nodes with no such cell within
+/// the extension's reach keep their value. Why: a coarse level of the nested solve sees less of a
+/// ragged body than the fine grid (its cut cells are not split), and its field read with those
+/// zeros falls from the twisted displacement to none within one coarse cell: det F up to 4 at the
+/// fine grid's points there (docs/dem_feature_grid.md, "A slow NeRF T-bar cloud: the cause").
+/// Returns how many nodes were continued.
+long continueUnseenNodes(const BsplineGrid& grid, Eigen::MatrixXd& C, const std::vector<Eigen::Vector3d>& points,
+                         const std::vector<double>& weights, const std::vector<Eigen::Vector3d>& targets, double fill);
+
 }  // namespace demnerf::mechanics
