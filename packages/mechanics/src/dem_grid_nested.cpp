@@ -107,7 +107,7 @@ void DemSolver::Impl::solveCoarseLevels(double scale, int& iterations) {
     if (config.verbose)
       std::cerr << "dem: nested level (cells of " << level.grid->cell() << " m) " << outcome.iterations
                 << " its, energy " << outcome.energy << ", residual " << outcome.residual << ", " << outcome.held
-                << " weak unknowns held; assembly "
+                << " weak unknowns held (rung " << outcome.hold_rung << ", " << outcome.released << " released); assembly "
                 << outcome.assembly_seconds << " s, factorisation " << outcome.factorisation_seconds << " s\n";
     if (outcome.iterations == 0) continue;
     // The Newton's unknowns are in metres (c C): the grid's parameter is in units of the output scale.
