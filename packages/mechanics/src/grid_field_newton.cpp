@@ -171,6 +171,18 @@ bool releaseHeld(const GridFieldEnergy& energy, const Unknowns& unknowns, const 
   return true;
 }
 
+// The weak hold's inputs at the current iterate `x` (referenced, so always the loop's).
+WeakHoldInputs weakHoldInputs(const GridFieldProblem& problem, const BsplineGrid& grid, const GridFieldEnergy& energy,
+                              const Unknowns& unknowns, const Iterate& x) {
+  WeakHoldInputs inputs;
+  inputs.cover = [&] { return relativeCover(problem, grid, energy.activeNodes(), unknowns); };
+  inputs.free_derivatives = [&](Eigen::VectorXd& gradient, Eigen::SparseMatrix<double>& hessian) {
+    energy.derivatives(x.c, gradient, hessian, false);
+    gradient = unknowns.projectGradient(gradient);
+  };
+  return inputs;
+}
+
 // The residual the held unknowns would have if they were free, relative to the same load: the
 // answer is an equilibrium of the body with them held, and this says how far from one without.
 double heldResidual(const GridFieldEnergy& energy, const Unknowns& unknowns, const Iterate& x,
@@ -226,7 +238,7 @@ GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const Hyper
   Eigen::VectorXd gradient;
   Eigen::SparseMatrix<double> hessian;
   WeakHold hold{state.hold_rung};  // held unknowns (weakHoldStep), for the whole call unless released
-  const auto cover = [&] { return relativeCover(problem, grid, active, unknowns); };
+  const WeakHoldInputs hold_inputs = weakHoldInputs(problem, grid, energy, unknowns, x);
   // The last step was a full one from a residual this small: Newton's quadratic phase, where the
   // next residual is about its square (T-bar twist: 1.3e-6 -> 1.9e-12, 1.9e-2 -> 1.3e-6).
   constexpr double kQuadraticPhase = 1e-3;
@@ -253,7 +265,7 @@ GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const Hyper
     }
     if (it >= config.max_iterations) break;
     start = std::chrono::steady_clock::now();
-    const Eigen::VectorXd step = weakHoldStep(solver, hessian, gradient, config, cover, hold);
+    const Eigen::VectorXd step = weakHoldStep(solver, hessian, gradient, config, hold_inputs, hold);
     out.factorisation_seconds += secondsSince(start);
     const double decrement = -gradient.dot(step);
     if (!(decrement > 0) || !std::isfinite(decrement)) break;

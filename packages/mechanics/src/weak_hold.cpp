@@ -69,14 +69,17 @@ void holdWeak(const std::vector<char>& weak, Eigen::VectorXd& gradient, Eigen::S
 // unknowns (611 of them the clamp's) and stiffened the answer by 0.76 points of energy
 // (docs/dem_feature_grid.md, "The weak-unknown hold, narrowed").
 Eigen::VectorXd weakHoldStep(ShiftedCholesky& solver, Eigen::SparseMatrix<double>& hessian, Eigen::VectorXd& gradient,
-                             const GridNewtonConfig& config, const std::function<Eigen::VectorXd()>& cover,
-                             WeakHold& hold) {
+                             const GridNewtonConfig& config, const WeakHoldInputs& inputs, WeakHold& hold) {
   Eigen::VectorXd step = solver.solve(hessian, -gradient, config.initial_shift);
-  if (hold.rung > 0 || !solver.singular() || !(config.weak_stiffness > 0)) return step;
-  const Eigen::SparseMatrix<double> free_hessian = hessian;
-  const Eigen::VectorXd free_gradient = gradient;
-  const Eigen::VectorXd covered = cover();
-  for (hold.rung = std::max(1, std::min(hold.first_rung, 3)); hold.rung <= 3; ++hold.rung) {
+  if (hold.rung >= 3 || !solver.singular() || !(config.weak_stiffness > 0)) return step;
+  Eigen::SparseMatrix<double> free_hessian = hessian;
+  Eigen::VectorXd free_gradient = gradient;
+  if (hold.held > 0) inputs.free_derivatives(free_gradient, free_hessian);
+  const Eigen::VectorXd covered = inputs.cover();
+  // A narrow rung's Hessian found singular again at a later iterate climbs on: left to the shift,
+  // Newton crawled on a closed fox sponge (residual 0.96 after 30 iterations, 66 factorisations).
+  const int first = hold.rung > 0 ? hold.rung + 1 : std::max(1, std::min(hold.first_rung, 3));
+  for (hold.rung = first; hold.rung <= 3; ++hold.rung) {
     long count = 0;
     const double ratio = hold.rung == 1 ? config.weak_cover : config.weak_stiffness;
     std::vector<char> weak = flagBelow(hold.rung == 3 ? relativeDiagonal(free_hessian) : covered, ratio, count);
@@ -87,17 +90,15 @@ Eigen::VectorXd weakHoldStep(ShiftedCholesky& solver, Eigen::SparseMatrix<double
     hessian = free_hessian;
     gradient = free_gradient;
     holdWeak(hold.weak, gradient, &hessian);
-    // A fresh factorisation of the held Hessian says whether it is still singular (each rung that
-    // fails costs a Lanczos run and two factorisations: a load ramp's later calls on the same
-    // unknowns start at the rung the last one needed, first_rung). The last rung takes the step
-    // as the hold always did (the last factor preconditions it).
-    if (hold.rung == 3) return solver.solve(hessian, -gradient, config.initial_shift);
-    solver.forget();
-    step = solver.solve(hessian, -gradient, config.initial_shift);
-    if (!solver.singular()) return step;
+    // The last rung takes the step as the hold always did (the last factor preconditions it).
+    // A narrower one stays only if the held Hessian factorises unshifted (positive definite: the
+    // factor then solves it in one CG step); one that does not costs that one factorisation, and a
+    // load ramp's later calls on the same unknowns start at the rung the last one needed.
+    if (hold.rung == 3 || solver.factoriseUnshifted(hessian))
+      return solver.solve(hessian, -gradient, config.initial_shift);
   }
-  hold.rung = 3;
-  return step;
+  hold.rung = 3;  // the old hold's set was a narrower rung's, or empty
+  return hold.held > 0 ? solver.solve(hessian, -gradient, config.initial_shift) : step;
 }
 
 }  // namespace demnerf::mechanics

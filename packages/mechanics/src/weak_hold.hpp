@@ -36,10 +36,16 @@ Eigen::VectorXd relativeCover(const GridFieldProblem& problem, const BsplineGrid
 /// pivot, so the factorisation needs no shift for them and the residual is the other unknowns'.
 void holdWeak(const std::vector<char>& weak, Eigen::VectorXd& gradient, Eigen::SparseMatrix<double>* hessian);
 
-/// The Newton step, holding weak unknowns the first time a factorisation finds the Hessian singular.
-/// `cover` gives relativeCover (computed only then). See grid_field_newton.hpp, weak_cover.
+/// What the ladder needs only when it runs: relativeCover, and the gradient and Hessian at the
+/// iterate without any hold (a later rung replaces an earlier one's set; the Newton's own are held).
+struct WeakHoldInputs {
+  std::function<Eigen::VectorXd()> cover;
+  std::function<void(Eigen::VectorXd& gradient, Eigen::SparseMatrix<double>& hessian)> free_derivatives;
+};
+
+/// The Newton step, holding weak unknowns whenever a factorisation finds the Hessian singular and
+/// a wider rung is left (grid_field_newton.hpp, weak_cover).
 Eigen::VectorXd weakHoldStep(ShiftedCholesky& solver, Eigen::SparseMatrix<double>& hessian, Eigen::VectorXd& gradient,
-                             const GridNewtonConfig& config, const std::function<Eigen::VectorXd()>& cover,
-                             WeakHold& hold);
+                             const GridNewtonConfig& config, const WeakHoldInputs& inputs, WeakHold& hold);
 
 }  // namespace demnerf::mechanics

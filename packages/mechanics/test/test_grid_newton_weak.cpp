@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <iostream>
 
 #include "demnerf/mechanics/bspline_grid.hpp"
 #include "demnerf/mechanics/grid_field_newton.hpp"
@@ -112,6 +113,8 @@ TEST(GridNewtonWeakUnknowns, OnlyTheSliversAreHeldNotTheClampsFunctions) {
   const dm::GridNewtonOutcome ragged = solve(SlenderBar(true), 1e-3, ragged_C);
   ASSERT_TRUE(clean.converged);
   ASSERT_TRUE(ragged.converged) << "residual " << ragged.residual;
+  std::cout << "clean " << clean.energy << " J; ragged " << ragged.energy << " J, " << ragged.held
+            << " held (rung " << ragged.hold_rung << "), held residual " << ragged.held_residual << "\n";
   EXPECT_EQ(ragged.hold_rung, 1);
   // Each sliver point lies in the support of one layer (3 x 3) of grid nodes outside the bar's:
   // 16 points, at most 144 nodes, 432 unknowns; nothing the bar covers.
