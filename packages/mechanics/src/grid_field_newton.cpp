@@ -62,7 +62,7 @@ std::vector<long> unknownNodes(const GridFieldEnergy& energy, const Unknowns& un
 struct GridNewtonCache::State {
   std::vector<long> unknown_nodes;
   ShiftedCholesky solver;
-  int hold_rung = 0;  // the weak hold's rung that made the last call's Hessian regular (weak_hold.cpp)
+  int hold_rung = 0;  // the widest weak-hold rung a call on these unknowns needed (weak_hold.cpp)
 };
 
 GridNewtonCache::GridNewtonCache() = default;
@@ -106,7 +106,7 @@ bool startingPoint(const GridFieldEnergy& energy, const Unknowns& unknowns, cons
 
 // The linear solver of these unknowns: the cache's when it was made for them, else a new one.
 GridNewtonCache::State& linearSolver(GridNewtonCache& cache, const GridFieldEnergy& energy, const Unknowns& unknowns,
-                              const BsplineGrid& grid, int threads, bool near_minimum) {
+                                     const BsplineGrid& grid, int threads, bool near_minimum) {
   std::vector<long> unknown_nodes = unknownNodes(energy, unknowns);
   if (!cache.state || cache.state->unknown_nodes != unknown_nodes) {
     cache.state = std::make_unique<GridNewtonCache::State>();

@@ -76,6 +76,7 @@ struct GridNewtonConfig {
   /// weak_stiffness of the mean (the clamp's nodes, which the distance factor D leaves little
   /// stiffness; "The weak-unknown hold, narrowed"). weak_stiffness 0: never held.
   double weak_stiffness = 1e-3;
+  /// The first rung's cover ratio (functions only slivers reach; 0: the ladder starts at the second).
   double weak_cover = 1e-6;
   /// At the held equilibrium, the held unknowns are let go (and Newton goes on) when the Hessian
   /// without the hold factorises unshifted there: the singularity was the start's, not the body's.
