@@ -169,7 +169,8 @@ bool DemSolver::Impl::solveGrid(double scale, int& iterations) {
   if (config.verbose)
     std::cerr << "dem: grid Newton " << outcome.iterations << " its, energy " << outcome.energy << ", min J "
               << outcome.min_J << ", residual " << outcome.residual << (outcome.converged ? "" : " (not converged)")
-              << ", " << outcome.held << " weak unknowns held, " << outcome.factorisations
+              << ", " << outcome.held << " weak unknowns held (rung " << outcome.hold_rung << ", " << outcome.released
+              << " released), " << outcome.factorisations
               << " factorisations; assembly "
               << outcome.assembly_seconds << " s, factorisation " << outcome.factorisation_seconds
               << " s, line search " << outcome.line_search_seconds << " s\n";

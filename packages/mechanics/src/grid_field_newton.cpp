@@ -13,6 +13,7 @@
 #include "grid_field_energy.hpp"
 #include "parallel_for.hpp"
 #include "shifted_cholesky.hpp"
+#include "weak_hold.hpp"
 
 namespace demnerf::mechanics {
 namespace {
@@ -61,6 +62,7 @@ std::vector<long> unknownNodes(const GridFieldEnergy& energy, const Unknowns& un
 struct GridNewtonCache::State {
   std::vector<long> unknown_nodes;
   ShiftedCholesky solver;
+  int hold_rung = 0;  // the widest weak-hold rung a call on these unknowns needed (weak_hold.cpp)
 };
 
 GridNewtonCache::GridNewtonCache() = default;
@@ -103,8 +105,8 @@ bool startingPoint(const GridFieldEnergy& energy, const Unknowns& unknowns, cons
 }
 
 // The linear solver of these unknowns: the cache's when it was made for them, else a new one.
-ShiftedCholesky& linearSolver(GridNewtonCache& cache, const GridFieldEnergy& energy, const Unknowns& unknowns,
-                              const BsplineGrid& grid, int threads, bool near_minimum) {
+GridNewtonCache::State& linearSolver(GridNewtonCache& cache, const GridFieldEnergy& energy, const Unknowns& unknowns,
+                                     const BsplineGrid& grid, int threads, bool near_minimum) {
   std::vector<long> unknown_nodes = unknownNodes(energy, unknowns);
   if (!cache.state || cache.state->unknown_nodes != unknown_nodes) {
     cache.state = std::make_unique<GridNewtonCache::State>();
@@ -113,7 +115,7 @@ ShiftedCholesky& linearSolver(GridNewtonCache& cache, const GridFieldEnergy& ene
     cache.state->solver.setThreads(assemblyThreads(threads));
     if (near_minimum) cache.state->solver.tryUnshiftedFirst();
   }
-  return cache.state->solver;
+  return *cache.state;
 }
 
 // Backtracking (Armijo) along `step`; inverted states have infinite energy and are rejected.
@@ -132,53 +134,6 @@ bool lineSearch(const GridFieldEnergy& energy, const Unknowns& unknowns, const E
   return false;
 }
 
-// The unknowns whose stiffness (Hessian diagonal) at the start is below `ratio` of the mean: grid
-// functions the body barely sees, e.g. those the distance factor D of a fixture all but cancels at
-// every point they reach. On the fox's ragged NeRF body they made the Hessian singular at rest
-// (covers 1e-4 .. 1e-8 of a cell): Lanczos saw no negative curvature, every factorisation needed
-// the fallback shift of 1e-3, and that shift stalled the body's soft bending modes (residual
-// 2e-3 after 21 iterations of a 300 s budget; docs/dem_feature_grid.md, "Ragged bodies").
-std::vector<char> weakUnknowns(const Eigen::SparseMatrix<double>& hessian, double ratio, long& count) {
-  const Eigen::VectorXd diagonal = hessian.diagonal().cwiseAbs();
-  std::vector<char> weak(diagonal.size(), 0);
-  count = 0;
-  if (!(ratio > 0) || diagonal.size() == 0) return weak;
-  const double floor = ratio * diagonal.mean();
-  for (Eigen::Index k = 0; k < diagonal.size(); ++k) count += weak[k] = diagonal(k) < floor;
-  return weak;
-}
-
-// Holds the weak unknowns where they are: no gradient, no coupling and the mean diagonal as pivot,
-// so the factorisation needs no shift for them and the residual is the other unknowns'. Only for a
-// Hessian found singular: holding them always stiffened a clamped cantilever by 2.7 % in energy and
-// put the T-bar 5.8 % off (the weak unknowns beside a clamp carry its field), and damping them alone
-// instead stalled their own convergence on clean bodies.
-void holdWeak(const std::vector<char>& weak, Eigen::VectorXd& gradient, Eigen::SparseMatrix<double>* hessian) {
-  if (weak.empty()) return;
-  for (Eigen::Index k = 0; k < gradient.size(); ++k)
-    if (weak[k]) gradient(k) = 0.0;
-  if (!hessian || hessian->nonZeros() == 0) return;
-  const double mean = std::max(hessian->diagonal().cwiseAbs().mean(), std::numeric_limits<double>::min());
-  for (int col = 0; col < hessian->outerSize(); ++col)
-    for (Eigen::SparseMatrix<double>::InnerIterator it(*hessian, col); it; ++it)
-      if (weak[it.row()] || weak[it.col()]) it.valueRef() = it.row() == it.col() ? mean : 0.0;
-}
-
-// The Newton step; the first time a factorisation finds the Hessian singular, its weak unknowns
-// are held from then on (`weak`, `held`) and the step is taken again without them. Not only at
-// the first iteration: a fine grid started from a coarse answer factorises its first Hessian
-// unshifted (near_minimum) and met the singularity later (the fox's freshly trained sponge:
-// residual falling 0.7x per iteration under the shift, no equilibrium in 200 s).
-Eigen::VectorXd newtonStep(ShiftedCholesky& solver, Eigen::SparseMatrix<double>& hessian, Eigen::VectorXd& gradient,
-                           const GridNewtonConfig& config, std::vector<char>& weak, long& held) {
-  Eigen::VectorXd step = solver.solve(hessian, -gradient, config.initial_shift);
-  if (held > 0 || !solver.singular() || !(config.weak_stiffness > 0)) return step;
-  weak = weakUnknowns(hessian, config.weak_stiffness, held);
-  if (held == 0) return step;
-  holdWeak(weak, gradient, &hessian);
-  return solver.solve(hessian, -gradient, config.initial_shift);
-}
-
 // The gradient at the iterate (in the unknowns) and the Hessian there. In Newton's quadratic phase
 // the residual is mostly converged already: the gradient alone (a fraction of an assembly) is
 // computed first, and the Hessian skipped when its norm is within `converged` (Newton stops there).
@@ -195,6 +150,39 @@ void assembleAt(const GridFieldEnergy& energy, const Unknowns& unknowns, const I
   holdWeak(weak, gradient, &hessian);
 }
 
+// At the held equilibrium, lets the held unknowns go when the Hessian without the hold is positive
+// definite there: the singularity was the start's (a coarse level's answer moved to the fine grid,
+// a first step's state), not the body's, and Newton goes on to the minimiser in the whole basis.
+// True when released. A body whose Hessian stays singular (the fox's sponge, slivers) keeps the
+// hold, at the price of one assembly and one factorisation.
+bool releaseHeld(const GridFieldEnergy& energy, const Unknowns& unknowns, const Iterate& x, ShiftedCholesky& solver,
+                 const GridNewtonConfig& config, double load, WeakHold& hold) {
+  if (!config.release_held || hold.held == 0 || hold.released > 0) return false;
+  Eigen::VectorXd gradient;
+  Eigen::SparseMatrix<double> hessian;
+  energy.derivatives(x.c, gradient, hessian, false);
+  gradient = unknowns.projectGradient(gradient);
+  // The held unknowns in balance as well: nothing to gain.
+  if (gradient.norm() <= config.residual_tolerance * load) return false;
+  if (!solver.factoriseUnshifted(hessian)) return false;
+  hold.released = hold.held;
+  hold.held = 0;
+  hold.weak.clear();
+  return true;
+}
+
+// The weak hold's inputs at the current iterate `x` (referenced, so always the loop's).
+WeakHoldInputs weakHoldInputs(const GridFieldProblem& problem, const BsplineGrid& grid, const GridFieldEnergy& energy,
+                              const Unknowns& unknowns, const Iterate& x) {
+  WeakHoldInputs inputs;
+  inputs.cover = [&] { return relativeCover(problem, grid, energy.activeNodes(), unknowns); };
+  inputs.free_derivatives = [&](Eigen::VectorXd& gradient, Eigen::SparseMatrix<double>& hessian) {
+    energy.derivatives(x.c, gradient, hessian, false);
+    gradient = unknowns.projectGradient(gradient);
+  };
+  return inputs;
+}
+
 // The residual the held unknowns would have if they were free, relative to the same load: the
 // answer is an equilibrium of the body with them held, and this says how far from one without.
 double heldResidual(const GridFieldEnergy& energy, const Unknowns& unknowns, const Iterate& x,
@@ -206,8 +194,15 @@ double heldResidual(const GridFieldEnergy& energy, const Unknowns& unknowns, con
   return load > 0 ? std::sqrt(sum) / load : 0.0;
 }
 
-// The outcome's energies and smallest det F at the returned iterate.
-void setEnergies(const Iterate& x, GridNewtonOutcome& out) {
+// The outcome's hold, energies and smallest det F at the returned iterate.
+void finish(const GridFieldEnergy& energy, const Unknowns& unknowns, const Iterate& x, const WeakHold& hold,
+            double load, GridNewtonCache::State& state, int factorisations_before, GridNewtonOutcome& out) {
+  out.factorisations = state.solver.factorisations() - factorisations_before;
+  state.hold_rung = std::max(state.hold_rung, hold.rung);  // the next call's ladder starts there
+  out.held = hold.held;
+  out.released = hold.released;
+  out.hold_rung = hold.rung;
+  if (out.held > 0) out.held_residual = heldResidual(energy, unknowns, x, hold.weak, load);
   out.energy = x.energy;
   out.strain_energy = x.strain;
   out.min_J = x.min_J;
@@ -230,19 +225,20 @@ GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const Hyper
     return out;
   }
   GridNewtonCache local;
-  ShiftedCholesky& solver = linearSolver(config.cache ? *config.cache : local, energy, unknowns, grid, config.threads,
-                                         config.near_minimum);
+  GridNewtonCache::State& state = linearSolver(config.cache ? *config.cache : local, energy, unknowns, grid,
+                                               config.threads, config.near_minimum);
+  ShiftedCholesky& solver = state.solver;
   const int factorisations_before = solver.factorisations();
   const auto store = [&] {
     for (std::size_t l = 0; l < active.size(); ++l) C.row(active[l]) = x.c.segment<3>(3 * l).transpose();
   };
-  // The load the residual is measured against: the external forces, or (a prescribed displacement
-  // alone) the internal forces of the start.
+  // The residual's measure: the external forces, or (a prescribed displacement alone) the start's internal ones.
   double load = energy.externalNorm();
   int rounding_steps = 0;
   Eigen::VectorXd gradient;
   Eigen::SparseMatrix<double> hessian;
-  std::vector<char> weak;  // held unknowns (newtonStep), for the whole call
+  WeakHold hold{state.hold_rung};  // held unknowns (weakHoldStep), for the whole call unless released
+  const WeakHoldInputs hold_inputs = weakHoldInputs(problem, grid, energy, unknowns, x);
   // The last step was a full one from a residual this small: Newton's quadratic phase, where the
   // next residual is about its square (T-bar twist: 1.3e-6 -> 1.9e-12, 1.9e-2 -> 1.3e-6).
   constexpr double kQuadraticPhase = 1e-3;
@@ -250,7 +246,7 @@ GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const Hyper
   for (int it = 0;; ++it) {
     auto start = std::chrono::steady_clock::now();
     assembleAt(energy, unknowns, x, quadratic, config.projected_start && it == 0, config.residual_tolerance * load,
-               weak, gradient, hessian);
+               hold.weak, gradient, hessian);
     out.assembly_seconds += secondsSince(start);
     if (it == 0) load = std::max(load, gradient.norm());
     out.residual = load > 0 ? gradient.norm() / load : 0.0;
@@ -263,12 +259,13 @@ GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const Hyper
       }
     }
     if (out.residual <= config.residual_tolerance) {
+      if (releaseHeld(energy, unknowns, x, solver, config, load, hold)) continue;  // Newton goes on
       out.converged = true;
       break;
     }
     if (it >= config.max_iterations) break;
     start = std::chrono::steady_clock::now();
-    const Eigen::VectorXd step = newtonStep(solver, hessian, gradient, config, weak, out.held);
+    const Eigen::VectorXd step = weakHoldStep(solver, hessian, gradient, config, hold_inputs, hold);
     out.factorisation_seconds += secondsSince(start);
     const double decrement = -gradient.dot(step);
     if (!(decrement > 0) || !std::isfinite(decrement)) break;
@@ -290,10 +287,8 @@ GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const Hyper
     if (!moved) break;
     quadratic = full && out.residual <= kQuadraticPhase;
   }
-  if (out.held > 0) out.held_residual = heldResidual(energy, unknowns, x, weak, load);
-  out.factorisations = solver.factorisations() - factorisations_before;
   store();
-  setEnergies(x, out);
+  finish(energy, unknowns, x, hold, load, state, factorisations_before, out);
   return out;
 }
 

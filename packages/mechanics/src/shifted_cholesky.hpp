@@ -55,6 +55,20 @@ class ShiftedCholesky {
   /// beyond kMissedShift (grid functions the body barely sees; grid_field_newton.cpp holds them).
   bool singular() const { return singular_; }
   bool dense() const { return dense_; }
+  /// The next solve() factorises afresh instead of preconditioning CG with the last factor: the
+  /// grid Newton's weak hold asks whether the Hessian with unknowns held is still singular.
+  void forget() { factorised_ = false; }
+
+  /// Factorises H unshifted (kept for the next solve(), which then needs one CG step); true when H
+  /// is positive definite. The weak hold's release asks this of the Hessian without the hold.
+  bool factoriseUnshifted(const Eigen::SparseMatrix<double>& H) {
+    singular_ = false;
+    setScaling(H);
+    factorised_ = factorise(scaledCopy(H));
+    ++factorisations_;
+    if (factorised_) last_shift_ = 0.0;
+    return factorised_;
+  }
 
   Eigen::VectorXd solve(const Eigen::SparseMatrix<double>& H, const Eigen::VectorXd& b, double initial_shift) {
     singular_ = false;
@@ -69,9 +83,7 @@ class ShiftedCholesky {
     // see their small negative curvature: on the compressed cube at fill 0.25 it said "positive
     // definite" and the shift was found by 12 doublings from 1e-6, 12 sparse factorisations in one
     // Newton iteration. Scaled, the shift is relative to each column's own diagonal.
-    jacobi_ = H.diagonal().cwiseAbs();
-    const double mean = std::max(jacobi_.mean(), std::numeric_limits<double>::min());
-    for (Eigen::Index k = 0; k < jacobi_.size(); ++k) jacobi_(k) = 1.0 / std::sqrt(std::max(jacobi_(k), 1e-14 * mean));
+    const double mean = setScaling(H);
     const Eigen::SparseMatrix<double> scaled = scaledCopy(H);
     // A Hessian that needed no shift at the last factorisation usually needs none now (a Newton run
     // near its minimum): the unshifted factorisation is tried before Lanczos. It succeeds only when
@@ -113,6 +125,14 @@ class ShiftedCholesky {
   static constexpr Eigen::Index kMaxDense = 8000;  // 512 MB as a dense matrix
   static constexpr double kDenseShare = 0.25;
   static constexpr double kMissedShift = 1e-3;  // relative to the unit diagonal of the scaled H
+
+  // S = diag(|diag H|)^-1/2 (solve() says why); returns the mean |diag H|.
+  double setScaling(const Eigen::SparseMatrix<double>& H) {
+    jacobi_ = H.diagonal().cwiseAbs();
+    const double mean = std::max(jacobi_.mean(), std::numeric_limits<double>::min());
+    for (Eigen::Index k = 0; k < jacobi_.size(); ++k) jacobi_(k) = 1.0 / std::sqrt(std::max(jacobi_(k), 1e-14 * mean));
+    return mean;
+  }
 
   bool preconditionedCg(const Eigen::SparseMatrix<double>& H, const Eigen::VectorXd& b, Eigen::VectorXd& x) {
     x = Eigen::VectorXd::Zero(b.size());

@@ -66,12 +66,21 @@ struct GridNewtonConfig {
   /// at least this share by the quadrature are extrapolated from a nearby filled cell instead of
   /// being unknowns (0: every node the quadrature sees is an unknown).
   double extension_fill = 0.0;
-  /// When the first factorisation finds the Hessian singular (no negative curvature, yet not
-  /// positive definite), the unknowns whose diagonal is below this share of the mean are held
-  /// where they are (no step, not in the residual) for the rest of the call: grid functions the
-  /// body barely sees, and the shift of every column that would cover them stalls the body's soft
-  /// modes (a ragged NeRF body; docs/dem_feature_grid.md, "Ragged bodies"). 0: never held.
+  /// When a factorisation first finds the Hessian singular (no negative curvature, yet not
+  /// positive definite), weak unknowns are held where they are (no step, not in the residual):
+  /// grid functions the body barely sees, and the shift of every column that would cover them
+  /// stalls the body's soft modes (a ragged NeRF body; docs/dem_feature_grid.md, "Ragged bodies").
+  /// Narrowest first, until a factorisation finds the held Hessian no longer singular: the
+  /// unknowns whose cover (sum of w N^2 over the points, relative to the mean) is below
+  /// weak_cover, then below weak_stiffness, then also those whose Hessian diagonal is below
+  /// weak_stiffness of the mean (the clamp's nodes, which the distance factor D leaves little
+  /// stiffness; "The weak-unknown hold, narrowed"). weak_stiffness 0: never held.
   double weak_stiffness = 1e-3;
+  /// The first rung's cover ratio (functions only slivers reach; 0: the ladder starts at the second).
+  double weak_cover = 1e-6;
+  /// At the held equilibrium, the held unknowns are let go (and Newton goes on) when the Hessian
+  /// without the hold factorises unshifted there: the singularity was the start's, not the body's.
+  bool release_held = true;
   /// The Newton starts near its minimum (the nested solve's fine grid, started from a coarse
   /// grid's answer): a new factorisation is tried without a shift before Lanczos looks for one.
   bool near_minimum = false;
@@ -98,7 +107,9 @@ struct GridNewtonOutcome {
   int iterations = 0;
   double residual = 0.0;  ///< |dPi/dC| / load at the returned coefficients (see residual_tolerance)
   bool converged = false;
-  long held = 0;          ///< weak unknowns held (GridNewtonConfig::weak_stiffness)
+  long held = 0;          ///< weak unknowns held at the answer (GridNewtonConfig::weak_stiffness)
+  long released = 0;      ///< weak unknowns held, then let go (GridNewtonConfig::release_held)
+  int hold_rung = 0;      ///< the weak hold's last rung tried (1-3; 0: the Hessian was never singular)
   int factorisations = 0; ///< sparse (or dense) factorisations of this call, failed ones included
   /// |dPi/dC| / load over the held unknowns alone at the returned coefficients: what `residual`,
   /// which leaves them out, does not see (0 when none is held)
