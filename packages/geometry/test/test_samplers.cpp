@@ -70,6 +70,24 @@ TEST(GridSampler, UnitCubeCountsAndWeightsAreExact) {
   }
 }
 
+// A mesh read from a PLY file carries float coordinates: 0.3 m is stored as 0.30000001 m, a
+// hair over 50 spacings of 6 mm. The lattice must still be the body's 50 cell centres per metre
+// of 0.3, not 51 nodes with a layer on each face.
+TEST(GridSampler, ABoxStoredInFloatsKeepsItsCellCentres) {
+  const Eigen::Vector3d hi(static_cast<float>(0.3), static_cast<float>(0.06), static_cast<float>(0.06));
+  ASSERT_GT(hi.x() / 0.006, 50.0 + 1e-6);  // the rounding the sampler must absorb
+  const auto bar = makeBox(Eigen::Vector3d::Zero(), hi);
+  SamplingReport report;
+  const auto cloud = sampleParticles(bar, configFor(SamplingMethod::kGrid, 0.006), &report);
+  EXPECT_EQ(report.interior, 50u * 10u * 10u);
+  double nearest_face = 1.0;  // over the interior particles: half a spacing at cell centres
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3d& p = cloud.positions[i];
+    if (!cloud.isSurface(i)) nearest_face = std::min(nearest_face, p.cwiseMin(hi - p).minCoeff());
+  }
+  EXPECT_NEAR(nearest_face, 0.003, 1e-6);
+}
+
 TEST(GridSampler, BoxOffTheGridGetsClippedCellVolumes) {
   // Unit cube at h = 0.3: four nodes per axis at 0.05, 0.35, 0.65, 0.95, whose cells clipped
   // to the cube are 0.2, 0.3, 0.3, 0.2 long.
