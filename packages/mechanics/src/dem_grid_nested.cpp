@@ -111,8 +111,9 @@ void DemSolver::Impl::solveCoarseLevels(double scale, int& iterations) {
     if (config.verbose)
       std::cerr << "dem: nested level (cells of " << level.grid->cell() << " m) " << outcome.iterations
                 << " its, energy " << outcome.energy << ", residual " << outcome.residual << ", " << outcome.held
-                << " weak unknowns held (rung " << outcome.hold_rung << ", " << outcome.released << " released); assembly "
-                << outcome.assembly_seconds << " s, factorisation " << outcome.factorisation_seconds << " s\n";
+                << " weak unknowns held (rung " << outcome.hold_rung << ", " << outcome.released
+                << " released); assembly " << outcome.assembly_seconds << " s, factorisation "
+                << outcome.factorisation_seconds << " s\n";
     if (outcome.iterations == 0) continue;
     // The fine grid sees more of a ragged body than the level (whose cut cells are not split): the
     // level's field is continued onto the nodes only the fine points reach before it is moved.
