@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <limits>
 
 #include "demnerf/core/error.hpp"
@@ -18,6 +19,14 @@ double lagrange(int first, int degree, int i, int j) {
 }
 
 }  // namespace
+
+std::vector<double> quadratureCellFill(const BsplineGrid& grid, const std::vector<Eigen::Vector3d>& points,
+                                       const std::vector<double>& weights) {
+  std::vector<double> fill(static_cast<std::size_t>(grid.cells().cast<long>().prod()), 0.0);
+  const double cell_volume = std::pow(grid.cell(), 3);
+  for (std::size_t q = 0; q < points.size(); ++q) fill[grid.cellIndex(points[q])] += weights[q] / cell_volume;
+  return fill;
+}
 
 BsplineExtension extendOuterNodes(const BsplineGrid& grid, const std::vector<long>& nodes,
                                   const std::vector<double>& cell_fill, double full) {

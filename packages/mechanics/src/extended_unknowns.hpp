@@ -20,11 +20,8 @@ class Unknowns {
  public:
   Unknowns(const GridFieldProblem& problem, const BsplineGrid& grid, const std::vector<long>& active, double fill) {
     if (!(fill > 0)) return;
-    std::vector<double> cell_fill(static_cast<std::size_t>(grid.cells().cast<long>().prod()), 0.0);
-    const double cell_volume = std::pow(grid.cell(), 3);
-    for (std::size_t q = 0; q < problem.points.size(); ++q)
-      cell_fill[grid.cellIndex(problem.points[q])] += problem.volume[q] / cell_volume;
-    const BsplineExtension ext = extendOuterNodes(grid, active, cell_fill, fill);
+    const BsplineExtension ext =
+        extendOuterNodes(grid, active, quadratureCellFill(grid, problem.points, problem.volume), fill);
     std::vector<Eigen::Triplet<double>> entries;
     for (int k = 0; k < ext.map.outerSize(); ++k)
       for (Eigen::SparseMatrix<double>::InnerIterator it(ext.map, k); it; ++it)

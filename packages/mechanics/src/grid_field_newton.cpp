@@ -153,21 +153,25 @@ void assembleAt(const GridFieldEnergy& energy, const Unknowns& unknowns, const I
 // At the held equilibrium, lets the held unknowns go when the Hessian without the hold is positive
 // definite there: the singularity was the start's (a coarse level's answer moved to the fine grid,
 // a first step's state), not the body's, and Newton goes on to the minimiser in the whole basis.
-// True when released. A body whose Hessian stays singular (the fox's sponge, slivers) keeps the
-// hold, at the price of one assembly and one factorisation.
+// True when released; the free gradient and Hessian at x are then in `gradient` and `hessian`, the
+// next iteration's. A body whose Hessian stays singular (the fox's sponge, slivers) keeps the hold,
+// at the price of one assembly and one factorisation.
 bool releaseHeld(const GridFieldEnergy& energy, const Unknowns& unknowns, const Iterate& x, ShiftedCholesky& solver,
-                 const GridNewtonConfig& config, double load, WeakHold& hold) {
+                 const GridNewtonConfig& config, double load, WeakHold& hold, Eigen::VectorXd& gradient,
+                 Eigen::SparseMatrix<double>& hessian) {
   if (!config.release_held || hold.held == 0 || hold.released > 0) return false;
-  Eigen::VectorXd gradient;
-  Eigen::SparseMatrix<double> hessian;
-  energy.derivatives(x.c, gradient, hessian, false);
-  gradient = unknowns.projectGradient(gradient);
+  Eigen::VectorXd free_gradient;
+  Eigen::SparseMatrix<double> free_hessian;
+  energy.derivatives(x.c, free_gradient, free_hessian, false);
+  free_gradient = unknowns.projectGradient(free_gradient);
   // The held unknowns in balance as well: nothing to gain.
-  if (gradient.norm() <= config.residual_tolerance * load) return false;
-  if (!solver.factoriseUnshifted(hessian)) return false;
+  if (free_gradient.norm() <= config.residual_tolerance * load) return false;
+  if (!solver.factoriseUnshifted(free_hessian)) return false;
   hold.released = hold.held;
   hold.held = 0;
   hold.weak.clear();
+  gradient = std::move(free_gradient);
+  hessian = std::move(free_hessian);
   return true;
 }
 
@@ -192,6 +196,19 @@ double heldResidual(const GridFieldEnergy& energy, const Unknowns& unknowns, con
   for (Eigen::Index k = 0; k < full.size(); ++k)
     if (weak[k]) sum += full(k) * full(k);
   return load > 0 ? std::sqrt(sum) / load : 0.0;
+}
+
+// The caller's per-iteration report; if it throws (a stop request), the iterate reached so far is
+// stored in the caller's coefficients first.
+template <typename Store>
+void notifyIteration(const GridNewtonConfig& config, int it, double energy, double residual, const Store& store) {
+  if (!config.on_iteration) return;
+  try {
+    config.on_iteration(it, energy, residual);
+  } catch (...) {
+    store();
+    throw;
+  }
 }
 
 // The outcome's hold, energies and smallest det F at the returned iterate.
@@ -243,23 +260,22 @@ GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const Hyper
   // next residual is about its square (T-bar twist: 1.3e-6 -> 1.9e-12, 1.9e-2 -> 1.3e-6).
   constexpr double kQuadraticPhase = 1e-3;
   bool quadratic = false;
+  bool assembled = false;  // gradient and hessian are already x's (a release assembled them)
   for (int it = 0;; ++it) {
     auto start = std::chrono::steady_clock::now();
-    assembleAt(energy, unknowns, x, quadratic, config.projected_start && it == 0, config.residual_tolerance * load,
-               hold.weak, gradient, hessian);
+    if (!assembled)
+      assembleAt(energy, unknowns, x, quadratic, config.projected_start && it == 0, config.residual_tolerance * load,
+                 hold.weak, gradient, hessian);
+    assembled = false;
     out.assembly_seconds += secondsSince(start);
     if (it == 0) load = std::max(load, gradient.norm());
     out.residual = load > 0 ? gradient.norm() / load : 0.0;
-    if (config.on_iteration) {
-      try {
-        config.on_iteration(it, x.energy, out.residual);
-      } catch (...) {
-        store();
-        throw;
-      }
-    }
+    notifyIteration(config, it, x.energy, out.residual, store);
     if (out.residual <= config.residual_tolerance) {
-      if (releaseHeld(energy, unknowns, x, solver, config, load, hold)) continue;  // Newton goes on
+      start = std::chrono::steady_clock::now();
+      assembled = releaseHeld(energy, unknowns, x, solver, config, load, hold, gradient, hessian);
+      out.assembly_seconds += secondsSince(start);
+      if (assembled) continue;  // Newton goes on in the whole basis
       out.converged = true;
       break;
     }

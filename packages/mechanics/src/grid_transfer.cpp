@@ -4,7 +4,6 @@
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <algorithm>
-#include <cmath>
 #include <string>
 
 #include "demnerf/core/error.hpp"
@@ -109,20 +108,13 @@ Eigen::MatrixXd transferGridField(const BsplineGrid& from, const Eigen::MatrixXd
 namespace {
 
 // The nodes of the cells that hold one of `points` ("seen", 1) and, of the cells that hold a target
-// but no point, the other nodes (2); with each cell's fill by the points. One basis evaluation per
-// cell: a cell's points share their nodes.
+// but no point, the other nodes (2). One basis evaluation per cell: a cell's points share their nodes.
 std::vector<char> nodeStates(const BsplineGrid& grid, const std::vector<Eigen::Vector3d>& points,
-                             const std::vector<double>& weights, const std::vector<Eigen::Vector3d>& targets,
-                             std::vector<double>& cell_fill) {
-  cell_fill.assign(static_cast<std::size_t>(grid.cells().cast<long>().prod()), 0.0);
-  std::vector<const Eigen::Vector3d*> seen_in(cell_fill.size(), nullptr), reached_in(cell_fill.size(), nullptr);
-  const double cell_volume = std::pow(grid.cell(), 3);
+                             const std::vector<double>& weights, const std::vector<Eigen::Vector3d>& targets) {
+  const auto cells = static_cast<std::size_t>(grid.cells().cast<long>().prod());
+  std::vector<const Eigen::Vector3d*> seen_in(cells, nullptr), reached_in(cells, nullptr);
   for (std::size_t q = 0; q < points.size(); ++q)
-    if (weights[q] > 0) {
-      const long cell = grid.cellIndex(points[q]);
-      cell_fill[cell] += weights[q] / cell_volume;
-      seen_in[cell] = &points[q];
-    }
+    if (weights[q] > 0) seen_in[grid.cellIndex(points[q])] = &points[q];
   for (const Eigen::Vector3d& x : targets) reached_in[grid.cellIndex(x)] = &x;
   const int S = grid.supportSize();
   std::vector<long> support(S);
@@ -149,13 +141,12 @@ long continueUnseenNodes(const BsplineGrid& grid, Eigen::MatrixXd& C, const std:
                          const std::vector<double>& weights, const std::vector<Eigen::Vector3d>& targets, double fill) {
   if (C.rows() != grid.nodeCount() || C.cols() != 3 || points.size() != weights.size())
     throw core::Error("grid continuation: C must be nodeCount x 3 and the points as many as their weights");
-  std::vector<double> cell_fill;
-  const std::vector<char> state = nodeStates(grid, points, weights, targets, cell_fill);
+  const std::vector<char> state = nodeStates(grid, points, weights, targets);
   if (std::find(state.begin(), state.end(), 2) == state.end()) return 0;
   std::vector<long> nodes;
   for (long a = 0; a < grid.nodeCount(); ++a)
     if (state[a] != 0) nodes.push_back(a);
-  const BsplineExtension ext = extendOuterNodes(grid, nodes, cell_fill, fill);
+  const BsplineExtension ext = extendOuterNodes(grid, nodes, quadratureCellFill(grid, points, weights), fill);
   // An extrapolated row reads the nodes of a filled cell, which its points see: the continued
   // values come from solved coefficients alone. A kept row (no filled cell within reach) is left.
   const Eigen::SparseMatrix<double, Eigen::RowMajor> map = ext.map;

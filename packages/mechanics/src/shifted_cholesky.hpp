@@ -55,10 +55,6 @@ class ShiftedCholesky {
   /// beyond kMissedShift (grid functions the body barely sees; grid_field_newton.cpp holds them).
   bool singular() const { return singular_; }
   bool dense() const { return dense_; }
-  /// The next solve() factorises afresh instead of preconditioning CG with the last factor: the
-  /// grid Newton's weak hold asks whether the Hessian with unknowns held is still singular.
-  void forget() { factorised_ = false; }
-
   /// Factorises H unshifted (kept for the next solve(), which then needs one CG step); true when H
   /// is positive definite. The weak hold's release asks this of the Hessian without the hold.
   bool factoriseUnshifted(const Eigen::SparseMatrix<double>& H) {

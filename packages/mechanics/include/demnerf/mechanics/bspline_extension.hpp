@@ -29,6 +29,11 @@ struct BsplineExtension {
   Eigen::SparseMatrix<double> map;
 };
 
+/// Per grid cell, the share of its volume that the quadrature (points, weights) puts there: the
+/// `cell_fill` extendOuterNodes reads.
+std::vector<double> quadratureCellFill(const BsplineGrid& grid, const std::vector<Eigen::Vector3d>& points,
+                                       const std::vector<double>& weights);
+
 /// `nodes`: the grid nodes (ids) that carry unknowns; `cell_fill`: per grid cell, the share of its
 /// volume inside the body (0-1, from the quadrature). A cell with fill >= `full` is inner; a node
 /// is kept when some inner cell lies in its support, else it is extrapolated from the nearest inner
