@@ -26,6 +26,7 @@
 //   out=DIR (default output/bench/mechanics_matrix: reference and NeRF caches, CSV/MD/PNG)
 //   docs=DIR (default docs/ for a full run, none for quick=1 or a subset): DIR/mechanics_matrix.{csv,md,png}
 //   config=FILE (the dem column's settings, as --config)   rows=SAMPLER/DIV,... (cells on these rows only)
+//   clouds=DIR (write each row's cloud to DIR/<scenario>_<source>_<sampler>_<divisor>.ply)
 //   quick=1: beam3d, grid sampler, coarsest spacing, exact surface, solvers fem,dem (a smoke run)
 // Prints one line per cell as it finishes and the Markdown table at the end.
 
@@ -197,6 +198,15 @@ void writeOutputs(const bench::MatrixReport& report, const bench::MatrixSettings
   }
 }
 
+// A row's cloud as a PLY, so that one cell can be run again through `demnerf simulate` (the PLY
+// stores floats: a solve that depends on the last digits shows it there).
+void writeCloud(const std::string& dir, const bench::MatrixRow& row, const core::ParticleCloud& cloud) {
+  std::filesystem::create_directories(dir);
+  core::writeParticles(dir + "/" + row.scenario + "_" + row.source + "_" + row.sampler + "_" +
+                           std::to_string(row.spacing_divisor) + ".ply",
+                       cloud);
+}
+
 // The clouds of one scenario x source (a row per sampler x spacing), and their union plus the
 // scenario's sanity probes, on which the reference is solved once.
 struct SourceClouds {
@@ -221,6 +231,7 @@ SourceClouds sampleClouds(const bench::MatrixCase& mc, const std::string& source
         config.seed = static_cast<std::uint64_t>(s.seed);
         cloud = geo::sampleParticles(surface, config);
         row.particles = cloud.size();
+        if (!s.clouds.empty()) writeCloud(s.clouds, row, cloud);
       } catch (const std::exception& e) {
         row.cloud_error = e.what();
         std::printf("%s %s %s 1/%d: sampler failed: %s\n", mc.name.c_str(), source.c_str(), sampler.c_str(), divisor,

@@ -38,6 +38,7 @@ MatrixSettings parseMatrixSettings(int argc, char** argv) {
   s.boundary_levels = static_cast<int>(num("levels", s.boundary_levels));
   s.yaml = text("yaml", "");
   s.config = text("config", "");
+  s.clouds = text("clouds", "");
   s.nerf_config = text("nerf_config", "");
   s.rows = splitList(text("rows", ""));
   if (!s.yaml.empty() && s.scenarios.size() != 1) throw core::Error("yaml= needs exactly one scenario in scenarios=");

@@ -14,6 +14,7 @@ struct MatrixSettings {
   double grid_spacings = 2.0, extension_fill = 0.75, body_cells = 0.0;  // the dem_cells / dem_ext columns
   int boundary_levels = 1, mlp_iters = -1, mlp_lbfgs = -1, gn_steps = -1, ref_div = 8, conv_div = 6, seed = 1;
   std::string out, docs, title, yaml, config;
+  std::string clouds;  ///< a folder to write each row's cloud to as a PLY (empty: none)
   std::string nerf_config;  ///< a NeRF YAML over the defaults for the NeRF rows' training (e.g. train.seed)
   std::vector<std::string> rows;
   bool partial = false;
