@@ -2,6 +2,7 @@
 
 #include <Eigen/LU>
 #include <algorithm>
+#include <functional>
 #include <map>
 
 #include "demnerf/core/error.hpp"
@@ -135,28 +136,55 @@ Eigen::Vector4d barycentric(const std::array<Eigen::Vector3d, 4>& c, const Eigen
   return Eigen::Vector4d(1.0 - l.sum(), l(0), l(1), l(2));
 }
 
+namespace {
+
+// Union-find over elements: two elements sharing a face (their three corner nodes) join one piece.
+// Elements that meet only at an edge or a corner stay apart.
+std::vector<int> faceConnectedPieces(const TetMesh& mesh) {
+  const int count = static_cast<int>(mesh.elements.size());
+  std::vector<std::pair<std::array<int, 3>, int>> faces;
+  faces.reserve(4 * static_cast<std::size_t>(count));
+  for (int e = 0; e < count; ++e)
+    for (int skip = 0; skip < 4; ++skip) {
+      std::array<int, 3> face{};
+      for (int k = 0, f = 0; k < 4; ++k)
+        if (k != skip) face[f++] = mesh.elements[e][k];
+      std::sort(face.begin(), face.end());
+      faces.emplace_back(face, e);
+    }
+  std::sort(faces.begin(), faces.end());
+  std::vector<int> parent(count);
+  for (int e = 0; e < count; ++e) parent[e] = e;
+  const std::function<int(int)> root = [&](int e) { return parent[e] == e ? e : parent[e] = root(parent[e]); };
+  for (std::size_t f = 1; f < faces.size(); ++f)
+    if (faces[f].first == faces[f - 1].first) parent[root(faces[f].second)] = root(faces[f - 1].second);
+  std::vector<int> piece(count);
+  for (int e = 0; e < count; ++e) piece[e] = root(e);
+  return piece;
+}
+
+}  // namespace
+
 TetMesh keepHeldPieces(const TetMesh& mesh, const std::function<bool(const Eigen::Vector3d&)>& held) {
-  // Union-find over nodes: every element joins its nodes into one piece.
-  std::vector<int> parent(mesh.nodes.size());
-  for (std::size_t i = 0; i < parent.size(); ++i) parent[i] = static_cast<int>(i);
-  const std::function<int(int)> root = [&](int i) { return parent[i] == i ? i : parent[i] = root(parent[i]); };
+  const std::vector<int> piece = faceConnectedPieces(mesh);
   const int per = mesh.nodesPerElement();
-  for (const auto& e : mesh.elements)
-    for (int k = 1; k < per; ++k) parent[root(e[k])] = root(e[0]);
-  std::vector<char> piece_held(mesh.nodes.size(), 0);
-  for (std::size_t i = 0; i < mesh.nodes.size(); ++i)
-    if (held(mesh.nodes[i])) piece_held[root(static_cast<int>(i))] = 1;
+  std::vector<char> piece_held(mesh.elements.size(), 0);
+  std::vector<char> node_held(mesh.nodes.size(), 0);
+  for (std::size_t i = 0; i < mesh.nodes.size(); ++i) node_held[i] = held(mesh.nodes[i]) ? 1 : 0;
+  for (std::size_t e = 0; e < mesh.elements.size(); ++e)
+    for (int k = 0; k < per; ++k)
+      if (node_held[mesh.elements[e][k]]) piece_held[piece[e]] = 1;
   TetMesh kept;
   kept.order = mesh.order;
   std::vector<int> renumber(mesh.nodes.size(), -1);
-  for (const auto& e : mesh.elements) {
-    if (!piece_held[root(e[0])]) continue;
-    std::array<int, 10> element = e;
+  for (std::size_t e = 0; e < mesh.elements.size(); ++e) {
+    if (!piece_held[piece[e]]) continue;
+    std::array<int, 10> element = mesh.elements[e];
     for (int k = 0; k < per; ++k) {
-      int& n = renumber[e[k]];
+      int& n = renumber[mesh.elements[e][k]];
       if (n < 0) {
         n = static_cast<int>(kept.nodes.size());
-        kept.nodes.push_back(mesh.nodes[e[k]]);
+        kept.nodes.push_back(mesh.nodes[mesh.elements[e][k]]);
       }
       element[k] = n;
     }

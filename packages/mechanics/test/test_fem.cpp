@@ -322,6 +322,46 @@ TEST(TetMesh, PiecesTouchingNoFixtureAreDropped) {
   EXPECT_EQ(dm::keepHeldPieces(a, [](const Eigen::Vector3d&) { return false; }).elements.size(), a.elements.size());
 }
 
+TEST(TetMesh, PiecesHingedOnAnEdgeOrACornerAreDropped) {
+  // A held box, and beyond its free end two tetrahedra that meet it only at an edge and at a corner:
+  // each turns freely about its hinge (a mesh of a bumpy surface can make such pieces). A piece
+  // joined through a face stays.
+  dm::TetMesh mesh = dm::structuredBoxMesh(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 1, 1), Eigen::Vector3i(2, 2, 2), 1);
+  const std::size_t box_elements = mesh.elements.size();
+  auto node = [&](const Eigen::Vector3d& x) {
+    for (std::size_t i = 0; i < mesh.nodes.size(); ++i)
+      if ((mesh.nodes[i] - x).norm() < 1e-12) return static_cast<int>(i);
+    mesh.nodes.push_back(x);
+    return static_cast<int>(mesh.nodes.size()) - 1;
+  };
+  auto add = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c, const Eigen::Vector3d& d) {
+    std::array<int, 10> e{};
+    e.fill(-1);
+    e[0] = node(a), e[1] = node(b), e[2] = node(c), e[3] = node(d);
+    mesh.elements.push_back(e);
+  };
+  add({1, 0, 1}, {1, 0.5, 1}, {1.3, 0.2, 1.2}, {1.3, 0.3, 0.9});      // on the edge (1, 0..0.5, 1)
+  add({1, 1, 0}, {1.2, 1.2, 0}, {1.2, 1.0, -0.2}, {1.4, 1.3, -0.1});  // on the corner (1, 1, 0)
+  const std::size_t with_hinges = mesh.elements.size();
+  for (const dm::BoundaryFace& f : dm::boundaryFaces(mesh)) {  // a tetrahedron on a triangle of the end face
+    std::array<Eigen::Vector3d, 3> corners;
+    for (int k = 0, c = 0; k < 4; ++k)
+      if (k != f.opposite) corners[c++] = mesh.nodes[mesh.elements[f.element][k]];
+    if (std::abs(corners[0].x() - 1) + std::abs(corners[1].x() - 1) + std::abs(corners[2].x() - 1) > 1e-12) continue;
+    add(corners[0], corners[1], corners[2], (corners[0] + corners[1] + corners[2]) / 3 + Eigen::Vector3d(0.3, 0, 0));
+    break;
+  }
+  const Eigen::Vector3d apex = mesh.nodes.back();
+  const dm::TetMesh kept = dm::keepHeldPieces(mesh, [](const Eigen::Vector3d& x) { return x.x() < 1e-9; });
+  EXPECT_EQ(kept.elements.size(), box_elements + 1) << "the hinged pieces stayed";
+  bool face_piece_kept = false;
+  for (const auto& x : kept.nodes) face_piece_kept = face_piece_kept || (x - apex).norm() < 1e-12;
+  EXPECT_TRUE(face_piece_kept);
+  EXPECT_EQ(kept.nodes.size(), 27u + 1u);
+  EXPECT_EQ(with_hinges, box_elements + 2);
+  EXPECT_EQ(mesh.elements.size(), box_elements + 3);
+}
+
 TEST(MeshSize, TheAutomaticCellFollowsTheBodyNotTheSampling) {
   // A 300 x 60 x 60 mm bar: V and A exactly, thickness 4 V / A (just under the 60 mm side).
   const dm::BodyMeasures bar = dm::measureSurface(dm::boxSurface(Vector3d(0, 0, 0), Vector3d(0.3, 0.06, 0.06)));
