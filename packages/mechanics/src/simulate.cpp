@@ -79,10 +79,12 @@ void reportMeshing(double volume, bool of_particles, const VoxelMeshConfig& voxe
 
 /// Says what the mesher made: its size is known only now (a bumpy surface refines it past the
 /// estimate reportMeshing gave), and the solve's cost follows it.
-void reportMesh(const TetMesh& mesh, SolveClock& clock) {
+/// `dropped`: tetrahedra of pieces that touch no fixture or hang on by an edge or a corner.
+void reportMesh(const TetMesh& mesh, std::size_t dropped, SolveClock& clock) {
   SolveProgress meshed;
   std::ostringstream phase;
   phase << "meshed: " << mesh.elements.size() << " tetrahedra, " << 3 * mesh.nodes.size() << " dofs";
+  if (dropped > 0) phase << " (" << dropped << " tetrahedra of loose or hinged pieces dropped)";
   meshed.phase = phase.str();
   meshed.residual = std::numeric_limits<double>::quiet_NaN();
   clock.report(meshed, true);
@@ -111,10 +113,11 @@ TetMesh cgalFemMesh(const core::ParticleCloud& cloud, const core::Scenario& scen
 }
 
 /// The FEM's mesh of the body: CGAL from the surface, or voxels of the surface or the particles;
-/// specks of a reconstructed body that touch no fixture are dropped (they would make the
-/// stiffness singular).
+/// specks of a reconstructed body that touch no fixture, and pieces that meet the body only at an
+/// edge or a corner, are dropped (they would make the stiffness singular); `dropped` counts their
+/// tetrahedra.
 TetMesh femMesh(const core::ParticleCloud& cloud, const core::Scenario& scenario, const core::TriangleMesh* surface,
-                const ParticlesSurface* of_particles, const VoxelMeshConfig& voxel, bool cgal) {
+                const ParticlesSurface* of_particles, const VoxelMeshConfig& voxel, bool cgal, std::size_t& dropped) {
   TetMesh mesh;
   if (cgal) {
     mesh = cgalFemMesh(cloud, scenario, *surface, of_particles, voxel);
@@ -123,11 +126,13 @@ TetMesh femMesh(const core::ParticleCloud& cloud, const core::Scenario& scenario
   } else {
     mesh = voxelMeshFromParticles(cloud, voxel);
   }
-  return keepHeldPieces(mesh, [&](const Eigen::Vector3d& x) {
+  TetMesh kept = keepHeldPieces(mesh, [&](const Eigen::Vector3d& x) {
     for (const core::Fixture& f : scenario.fixtures)
       if (f.region.contains(x)) return true;
     return false;
   });
+  dropped = mesh.elements.size() - kept.elements.size();
+  return kept;
 }
 
 void solveDem(const core::ParticleCloud& cloud, const core::Scenario& scenario, const SimulateOptions& options,
@@ -173,11 +178,12 @@ void solveFem(const core::ParticleCloud& cloud, const core::Scenario& scenario, 
   const BodyMeasures body = surface ? measureSurface(*surface) : measureParticles(cloud);
   const VoxelMeshConfig voxel = femVoxels(cloud, surface, body, options.voxel);
   reportMeshing(body.volume, of_particles.has_value(), voxel, cgal, clock);
-  TetMesh mesh = femMesh(cloud, scenario, surface, of_particles ? &*of_particles : nullptr, voxel, cgal);
+  std::size_t dropped = 0;
+  TetMesh mesh = femMesh(cloud, scenario, surface, of_particles ? &*of_particles : nullptr, voxel, cgal, dropped);
   out.mesh_nodes = static_cast<int>(mesh.nodes.size());
   out.mesh_elements = static_cast<int>(mesh.elements.size());
   out.mesh_cell = voxel.cell;
-  reportMesh(mesh, clock);
+  reportMesh(mesh, dropped, clock);
   clock.check("no state (meshing took the budget: " + std::to_string(out.mesh_elements) +
               " elements at a cell of " + std::to_string(voxel.cell) + " m; pass a larger --cell)");
   FemSolver fem(std::move(mesh), scenario, options.fem);
