@@ -173,7 +173,20 @@ TEST_F(DemNodeBadInput, RenderWithoutAUsableModelIsReported) {
   info.model_path = path;
   status.mark();
   models.publish(info);
-  ASSERT_TRUE(dem_nerf_test::spinUntil([&] { return models.getNumSubscribers() > 0; }, 10));
+  // Handled, not merely connected: a subscriber count says the latched ModelInfo is on its way,
+  // not that onModel has run, and the render errors of the part above ("no NeRF model") may still
+  // come after the mark. The node's own signal: with a result in hand and a listener on ~rendered,
+  // onModel renders again, and that render's error names the file.
+  EXPECT_TRUE(status.waitUntil(
+      [&](const dem_nerf::TrainingStatus& s) {
+        return s.stage == "error" && s.message.find("~rendered not updated") != std::string::npos &&
+               s.message.find(path) != std::string::npos;
+      },
+      15))
+      << "no render error naming " << path << " after the ModelInfo";
+  // The node now holds the model, and renders run one at a time: the first render error after a
+  // solve names the file too.
+  status.mark();
   expectGoodSolve(dem_nerf_test::barParticles().size());
   const std::string message = status.waitForError("~rendered not updated", 15);
   EXPECT_NE(message.find(path), std::string::npos) << "the error should name the file: " << message;

@@ -97,8 +97,13 @@ TEST(DemNodeParametric, ScaledWrenchesAreAnsweredWithoutTraining) {
   ros::NodeHandle node;
   tf2_ros::StaticTransformBroadcaster broadcaster;
   dem_nerf_test::broadcastToolFrame(broadcaster);
+  dem_nerf_test::StatusRecorder status(node, "/dem_node/status");
+  const std::size_t bar = dem_nerf_test::barParticles().size();
   ros::Publisher particles = dem_nerf_test::publishParticles(node, dem_nerf_test::barParticles());
-  ros::WallDuration(1.0).sleep();  // let dem_node take the particles first
+  // The first wrench must come after the particles, or their arrival would solve it: wait until
+  // ~status says the node holds them (a fixed sleep is too short while the node still starts).
+  ASSERT_TRUE(status.waitUntil([&](const dem_nerf::TrainingStatus& s) { return s.particles == bar; }, 30))
+      << "dem_node did not take the particles";
 
   ParametricCheck check;
   ros::WallDuration(0.5).sleep();

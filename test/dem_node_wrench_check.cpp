@@ -54,9 +54,13 @@ TEST(DemNodeWrench, TheTipFollowsTheForceAndTheClampHolds) {
   tf2_ros::StaticTransformBroadcaster broadcaster;
   dem_nerf_test::broadcastToolFrame(broadcaster);
   const demnerf::core::ParticleCloud bar = dem_nerf_test::barParticles(0.005);
+  dem_nerf_test::StatusRecorder status(node, "/dem_node/status");
   ros::Publisher particles = dem_nerf_test::publishParticles(node, bar);
   ros::Publisher wrenches = node.advertise<geometry_msgs::WrenchStamped>("/dem_node/wrench", 1, true);
-  ros::WallDuration(1.0).sleep();  // let dem_node take the particles first
+  // The wrench must come after the particles (the scenario has no loads, so the particles alone
+  // solve nothing): wait until ~status says the node holds them, not a fixed time.
+  ASSERT_TRUE(status.waitUntil([&](const dem_nerf::TrainingStatus& s) { return s.particles == bar.size(); }, 30))
+      << "dem_node did not take the particles";
   geometry_msgs::WrenchStamped wrench;
   wrench.header.frame_id = "tool";
   wrench.header.stamp = ros::Time(0);  // latest tf
