@@ -1,8 +1,10 @@
 #include "demnerf/mechanics/simulate.hpp"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <iomanip>
 #include <limits>
 #include <optional>
 #include <sstream>
@@ -79,12 +81,32 @@ void reportMeshing(double volume, bool of_particles, const VoxelMeshConfig& voxe
 
 /// Says what the mesher made: its size is known only now (a bumpy surface refines it past the
 /// estimate reportMeshing gave), and the solve's cost follows it.
-/// `dropped`: tetrahedra of pieces that touch no fixture or hang on by an edge or a corner.
-void reportMesh(const TetMesh& mesh, std::size_t dropped, SolveClock& clock) {
+/// The volume of a mesh's tetrahedra (their corners: a TET10's edges are straight).
+double meshVolume(const TetMesh& mesh) {
+  double volume = 0.0;
+  for (const auto& e : mesh.elements) {
+    const Eigen::Vector3d a = mesh.nodes[e[1]] - mesh.nodes[e[0]], b = mesh.nodes[e[2]] - mesh.nodes[e[0]],
+                          c = mesh.nodes[e[3]] - mesh.nodes[e[0]];
+    volume += std::abs(a.dot(b.cross(c))) / 6.0;
+  }
+  return volume;
+}
+
+/// Pieces that touch no fixture or hang on by an edge or a corner, dropped from the mesh.
+struct DroppedPieces {
+  std::size_t tetrahedra = 0;
+  double volume_share = 0.0;  ///< of the whole mesh's volume
+};
+
+/// `dropped`: what keepHeldPieces took out; its share of the volume says whether the solve still
+/// runs on the body (a few slivers) or on part of it.
+void reportMesh(const TetMesh& mesh, const DroppedPieces& dropped, SolveClock& clock) {
   SolveProgress meshed;
   std::ostringstream phase;
   phase << "meshed: " << mesh.elements.size() << " tetrahedra, " << 3 * mesh.nodes.size() << " dofs";
-  if (dropped > 0) phase << " (" << dropped << " tetrahedra of loose or hinged pieces dropped)";
+  if (dropped.tetrahedra > 0)
+    phase << " (dropped " << dropped.tetrahedra << " tetrahedra of loose or hinged pieces, "
+          << std::setprecision(2) << 100.0 * dropped.volume_share << " % of the volume)";
   meshed.phase = phase.str();
   meshed.residual = std::numeric_limits<double>::quiet_NaN();
   clock.report(meshed, true);
@@ -114,10 +136,9 @@ TetMesh cgalFemMesh(const core::ParticleCloud& cloud, const core::Scenario& scen
 
 /// The FEM's mesh of the body: CGAL from the surface, or voxels of the surface or the particles;
 /// specks of a reconstructed body that touch no fixture, and pieces that meet the body only at an
-/// edge or a corner, are dropped (they would make the stiffness singular); `dropped` counts their
-/// tetrahedra.
+/// edge or a corner, are dropped (they would make the stiffness singular) and told in `dropped`.
 TetMesh femMesh(const core::ParticleCloud& cloud, const core::Scenario& scenario, const core::TriangleMesh* surface,
-                const ParticlesSurface* of_particles, const VoxelMeshConfig& voxel, bool cgal, std::size_t& dropped) {
+                const ParticlesSurface* of_particles, const VoxelMeshConfig& voxel, bool cgal, DroppedPieces& dropped) {
   TetMesh mesh;
   if (cgal) {
     mesh = cgalFemMesh(cloud, scenario, *surface, of_particles, voxel);
@@ -131,7 +152,8 @@ TetMesh femMesh(const core::ParticleCloud& cloud, const core::Scenario& scenario
       if (f.region.contains(x)) return true;
     return false;
   });
-  dropped = mesh.elements.size() - kept.elements.size();
+  dropped.tetrahedra = mesh.elements.size() - kept.elements.size();
+  if (dropped.tetrahedra > 0) dropped.volume_share = 1.0 - meshVolume(kept) / meshVolume(mesh);
   return kept;
 }
 
@@ -178,7 +200,7 @@ void solveFem(const core::ParticleCloud& cloud, const core::Scenario& scenario, 
   const BodyMeasures body = surface ? measureSurface(*surface) : measureParticles(cloud);
   const VoxelMeshConfig voxel = femVoxels(cloud, surface, body, options.voxel);
   reportMeshing(body.volume, of_particles.has_value(), voxel, cgal, clock);
-  std::size_t dropped = 0;
+  DroppedPieces dropped;
   TetMesh mesh = femMesh(cloud, scenario, surface, of_particles ? &*of_particles : nullptr, voxel, cgal, dropped);
   out.mesh_nodes = static_cast<int>(mesh.nodes.size());
   out.mesh_elements = static_cast<int>(mesh.elements.size());
