@@ -70,14 +70,11 @@ dm::SimulateOptions solverOptions(const std::string& solver, const bench::Matrix
                                   double smallest) {
   dm::SimulateOptions o;
   o.control.time_limit = s.time_limit;
-  if (solver == "fem") {
-    o.surface = surface;  // `--solver fem --order 2 --mesh mesh.ply`
-    o.voxel.cell = s.fem_div > 0 ? smallest / s.fem_div : 0.0;
-    o.voxel.order = 2;
-  } else if (solver == "fem_cloud") {
-    // The trusted FEM given only what the DEM gets: the particles' own surface (`--solver fem
-    // --order 2` without --mesh). Against the reference on the surface itself it measures how
-    // far the cloud carries that surface, apart from any solver's discretisation.
+  if (solver == "fem" || solver == "fem_cloud") {
+    // `--solver fem --order 2 --mesh mesh.ply`; fem_cloud: the trusted FEM given only what the
+    // DEM gets, the particles' own surface (no --mesh). Against the reference on the surface
+    // itself, fem_cloud shows how far the cloud pins that surface down.
+    if (solver == "fem") o.surface = surface;
     o.voxel.cell = s.fem_div > 0 ? smallest / s.fem_div : 0.0;
     o.voxel.order = 2;
   } else if (solver == "dem") {

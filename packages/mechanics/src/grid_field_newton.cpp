@@ -153,17 +153,15 @@ void assembleAt(const GridFieldEnergy& energy, const Unknowns& unknowns, const I
 // At the held equilibrium, lets the held unknowns go when the Hessian without the hold is positive
 // definite there: the singularity was the start's (a coarse level's answer moved to the fine grid,
 // a first step's state), not the body's, and Newton goes on to the minimiser in the whole basis.
-// True when released; the free gradient and Hessian at x are then in `gradient` and `hessian`, the
+// True when released; the free gradient and Hessian at the iterate are then in `gradient` and `hessian`, the
 // next iteration's. A body whose Hessian stays singular (the fox's sponge, slivers) keeps the hold,
 // at the price of one assembly and one factorisation.
-bool releaseHeld(const GridFieldEnergy& energy, const Unknowns& unknowns, const Iterate& x, ShiftedCholesky& solver,
-                 const GridNewtonConfig& config, double load, WeakHold& hold, Eigen::VectorXd& gradient,
-                 Eigen::SparseMatrix<double>& hessian) {
+bool releaseHeld(const WeakHoldInputs& inputs, ShiftedCholesky& solver, const GridNewtonConfig& config, double load,
+                 WeakHold& hold, Eigen::VectorXd& gradient, Eigen::SparseMatrix<double>& hessian) {
   if (!config.release_held || hold.held == 0 || hold.released > 0) return false;
   Eigen::VectorXd free_gradient;
   Eigen::SparseMatrix<double> free_hessian;
-  energy.derivatives(x.c, free_gradient, free_hessian, false);
-  free_gradient = unknowns.projectGradient(free_gradient);
+  inputs.free_derivatives(free_gradient, free_hessian);
   // The held unknowns in balance as well: nothing to gain.
   if (free_gradient.norm() <= config.residual_tolerance * load) return false;
   if (!solver.factoriseUnshifted(free_hessian)) return false;
@@ -273,7 +271,7 @@ GridNewtonOutcome minimiseGridField(const GridFieldProblem& problem, const Hyper
     notifyIteration(config, it, x.energy, out.residual, store);
     if (out.residual <= config.residual_tolerance) {
       start = std::chrono::steady_clock::now();
-      assembled = releaseHeld(energy, unknowns, x, solver, config, load, hold, gradient, hessian);
+      assembled = releaseHeld(hold_inputs, solver, config, load, hold, gradient, hessian);
       out.assembly_seconds += secondsSince(start);
       if (assembled) continue;  // Newton goes on in the whole basis
       out.converged = true;

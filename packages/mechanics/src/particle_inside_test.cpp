@@ -300,8 +300,8 @@ double ParticleInsideTest::distanceNear(const Eigen::Vector3d& x, int nearest, N
     const double j_ahead = (positions_[j] - p).dot(n);             // of the nearest's plane
     const double nearest_ahead = (p - positions_[j]).dot(normals_[j]);  // of j's plane
     if (std::abs(j_ahead) <= on_plane && std::abs(nearest_ahead) <= on_plane) return;  // both on the edge line
-    const bool convex = j_ahead <= on_plane && nearest_ahead <= on_plane &&
-                        (j_ahead < -on_plane || nearest_ahead < -on_plane);
+    // With both on the line left out, the two cases cannot overlap: one particle is off the other's plane.
+    const bool convex = j_ahead <= on_plane && nearest_ahead <= on_plane;
     const bool concave = j_ahead >= -on_plane && nearest_ahead >= -on_plane;
     const double dj = distance(j);
     if ((convex && dj > d) || (concave && dj < d)) {

@@ -1,6 +1,5 @@
 #include "demnerf/mechanics/simulate.hpp"
 
-#include <Eigen/Geometry>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -81,17 +80,6 @@ void reportMeshing(double volume, bool of_particles, const VoxelMeshConfig& voxe
 
 /// Says what the mesher made: its size is known only now (a bumpy surface refines it past the
 /// estimate reportMeshing gave), and the solve's cost follows it.
-/// The volume of a mesh's tetrahedra (their corners: a TET10's edges are straight).
-double meshVolume(const TetMesh& mesh) {
-  double volume = 0.0;
-  for (const auto& e : mesh.elements) {
-    const Eigen::Vector3d a = mesh.nodes[e[1]] - mesh.nodes[e[0]], b = mesh.nodes[e[2]] - mesh.nodes[e[0]],
-                          c = mesh.nodes[e[3]] - mesh.nodes[e[0]];
-    volume += std::abs(a.dot(b.cross(c))) / 6.0;
-  }
-  return volume;
-}
-
 /// Pieces that touch no fixture or hang on by an edge or a corner, dropped from the mesh.
 struct DroppedPieces {
   std::size_t tetrahedra = 0;
@@ -153,7 +141,7 @@ TetMesh femMesh(const core::ParticleCloud& cloud, const core::Scenario& scenario
     return false;
   });
   dropped.tetrahedra = mesh.elements.size() - kept.elements.size();
-  if (dropped.tetrahedra > 0) dropped.volume_share = 1.0 - meshVolume(kept) / meshVolume(mesh);
+  if (dropped.tetrahedra > 0) dropped.volume_share = 1.0 - tetMeshVolume(kept) / tetMeshVolume(mesh);
   return kept;
 }
 

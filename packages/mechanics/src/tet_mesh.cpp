@@ -165,6 +165,16 @@ std::vector<int> faceConnectedPieces(const TetMesh& mesh) {
 
 }  // namespace
 
+double tetMeshVolume(const TetMesh& mesh) {
+  double volume = 0.0;
+  for (const auto& e : mesh.elements) {
+    Eigen::Matrix3d edges;
+    edges << mesh.nodes[e[1]] - mesh.nodes[e[0]], mesh.nodes[e[2]] - mesh.nodes[e[0]], mesh.nodes[e[3]] - mesh.nodes[e[0]];
+    volume += std::abs(edges.determinant()) / 6.0;
+  }
+  return volume;
+}
+
 TetMesh keepHeldPieces(const TetMesh& mesh, const std::function<bool(const Eigen::Vector3d&)>& held) {
   const std::vector<int> piece = faceConnectedPieces(mesh);
   const int per = mesh.nodesPerElement();

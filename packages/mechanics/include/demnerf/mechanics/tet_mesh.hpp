@@ -41,6 +41,8 @@ TetMesh elevateToQuadratic(const TetMesh& linear);
 /// every load step.) Nodes are renumbered; a mesh with no held piece is returned unchanged (the
 /// solver then reports the missing support itself).
 TetMesh keepHeldPieces(const TetMesh& mesh, const std::function<bool(const Eigen::Vector3d&)>& held);
+/// The volume of the mesh's tetrahedra (from their corners: a TET10's edges are straight).
+double tetMeshVolume(const TetMesh& mesh);
 /// Faces that belong to exactly one element.
 std::vector<BoundaryFace> boundaryFaces(const TetMesh& mesh);
 
