@@ -148,6 +148,7 @@ bench::MatrixCell runCell(const std::string& solver, const core::ParticleCloud& 
     const dm::SimulationOutcome out = dm::simulate(cloud, scenario, solverChoice(solver), solverOptions(solver, s, surface, smallest));
     cell.seconds = bench::since(start);
     cell.converged = true;
+    cell.reason = out.coarse_grid;  // what `demnerf simulate` would warn of: a stiff answer
     cell.energy = out.energy;
     if (reference) {
       const dm::ResultComparison c = dm::compareResults(out.field, *reference);
@@ -181,6 +182,7 @@ void printCell(const bench::MatrixRow& row, const bench::MatrixCell& c) {
                 row.scenario.c_str(), row.source.c_str(), row.sampler.c_str(), row.spacing_divisor, row.particles,
                 c.solver.c_str(), c.seconds, c.energy, c.has_error ? (std::to_string(100 * c.rel_l2) + " %").c_str() : "-",
                 100 * c.max_error_rel, 100 * c.energy_error);
+    if (!c.reason.empty()) std::printf("  warning: %s\n", c.reason.c_str());
   }
   std::fflush(stdout);
 }

@@ -110,7 +110,8 @@ std::string markdown(const MatrixReport& report) {
   md << "Each cell: rel. L2 error of u against the reference FEM (TET10 on a CGAL Mesh_3 mesh of the same surface, "
         "at the same particles), wall seconds, energy error against the reference's energy; or the failure and its "
         "reason. h = smallest body dimension / divisor (in the scenario's length unit: metres, Beam3D's unit "
-        "length).\n\n";
+        "length). A converged cell marked \"warned: stiff\" came with the solver's warning that the particles are too "
+        "sparse for the grid their body or its rough surface needs (`demnerf simulate` prints it).\n\n";
   md << "| scenario | source | sampler | h | particles |";
   for (const std::string& s : report.solvers) md << " " << s << " |";
   md << "\n|---|---|---|---|---|";
@@ -131,7 +132,7 @@ std::string markdown(const MatrixReport& report) {
         md << " (no reference) " << fixed(c->seconds, 1) << " s, E " << c->energy << " |";
       } else {
         md << " " << percent(c->rel_l2) << ", " << fixed(c->seconds, 1) << " s, E " << (c->energy_error >= 0 ? "+" : "")
-           << percent(c->energy_error) << " |";
+           << percent(c->energy_error) << (c->reason.empty() ? "" : ", warned: stiff") << " |";
       }
     }
     md << "\n";
@@ -190,13 +191,13 @@ void writeHeatMap(const MatrixReport& report, const std::string& path) {
         text = "no ref " + fixed(c->seconds, 1) + "s";
       } else {
         fill = errorColour(c->rel_l2);
-        text = percent(c->rel_l2) + "  " + fixed(c->seconds, 1) + "s";
+        text = percent(c->rel_l2) + "  " + fixed(c->seconds, 1) + "s" + (c->reason.empty() ? "" : " *");
       }
       cv::rectangle(image, box, fill, cv::FILLED);
       cv::putText(image, text, cv::Point(box.x + 6, box.y + 16), font, 0.42, ink, 1, cv::LINE_AA);
     }
   }
-  cv::putText(image, "green <= 1 %, yellow ~5 %, red >= 30 %; dark: failed (cause and seconds)",
+  cv::putText(image, "green <= 1 %, yellow ~5 %, red >= 30 %; dark: failed (cause and seconds); *: warned stiff",
               cv::Point(8, head_h + rows * row_h + 20), font, 0.45, black, 1, cv::LINE_AA);
   if (!cv::imwrite(path, image)) throw core::Error("cannot write " + path);
 }

@@ -23,7 +23,7 @@ struct MatrixCell {
   std::string solver;
   bool converged = false;
   std::string failure;  ///< SolveFailure name, "error" (core::Error) or "no_reference"; empty when fine
-  std::string reason;   ///< what() of the failure
+  std::string reason;   ///< what() of the failure; on a converged cell the solver's warning (empty: none)
   double seconds = 0.0;
   double energy = 0.0;
   bool has_error = false;  ///< rel_l2 etc. are set (a converged cell with a reference)

@@ -108,10 +108,11 @@ std::string coarseGridNote(double cell, double floor, double volume, double area
   return note.str();
 }
 
-// The cell on a rough surface: rough_cell_ratio of the body's when the surface particles scatter
-// about their local quadric by more than rough_surface of the radius they are fitted over (two
-// cells, at least three surface spacings: a quadric's six coefficients need the neighbours), but
-// never finer than the particles resolve. Exactly sampled faces scatter 0; the NeRF T-bar's 1.5-2.4 %.
+// The cell a rough surface asks for: rough_cell_ratio of the body's when the surface particles
+// scatter about their local quadric by more than rough_surface of the radius they are fitted over
+// (two cells, at least three surface spacings: a quadric's six coefficients need the neighbours).
+// Exactly sampled faces scatter 0; the NeRF T-bar's 1.5-2.4 %. The caller keeps it no finer than
+// the particles resolve.
 // A cloud with fewer particles than body_cells keeps its cell: the NeRF cuboid's random 1/10
 // cloud (1,954 particles) is softer than its surface (its inside test rounds the loaded end), which
 // the 10.3 mm grid's stiffness cancelled and the 8.24 mm one exposed (rel. L2 1.64 -> 2.01 %). The
@@ -120,15 +121,44 @@ std::string coarseGridNote(double cell, double floor, double volume, double area
 // start the exact Hessian called indefinite; with the projected start (dem_grid_nested.cpp) they take
 // one, and the finer cell brings their energy within 1 % (docs/dem_feature_grid.md, "A positive
 // definite first fine step").
-double roughSurfaceCell(const DemConfig& config, const core::ParticleCloud& cloud, double spacing) {
+struct RoughSurfaceCell {
+  double cell = 0.0;     ///< the cell the surface asks for (the body's own where it is smooth)
+  double scatter = 0.0;  ///< surfaceRoughness() at `radius` (m); 0 where it was not measured
+  double radius = 0.0;   ///< the radius the scatter was measured over (m)
+};
+
+RoughSurfaceCell roughSurfaceCell(const DemConfig& config, const core::ParticleCloud& cloud) {
   const DemGridConfig& g = config.grid;
-  if (!(g.rough_surface > 0) || !(g.rough_cell_ratio < 1)) return g.cell;
-  const double finer = g.cell * g.rough_cell_ratio;
-  if (static_cast<double>(cloud.size()) < g.body_cells) return g.cell;
+  if (!(g.rough_surface > 0) || !(g.rough_cell_ratio < 1)) return {g.cell};
+  if (static_cast<double>(cloud.size()) < g.body_cells) return {g.cell};
   const double radius = std::max(2 * g.cell, 3 * surfaceParticleSpacing(cloud));
-  if (!(surfaceRoughness(cloud, radius) > g.rough_surface * radius)) return g.cell;
-  const bool particles = g.quadrature == DemConfig::GridQuadrature::kParticles;
-  return std::max(finer, (particles ? 1.0 : kFinestCellInSpacings) * spacing);
+  const double scatter = surfaceRoughness(cloud, radius);
+  if (!(scatter > g.rough_surface * radius)) return {g.cell, scatter, radius};
+  return {g.cell * g.rough_cell_ratio, scatter, radius};
+}
+
+// What the user should know when the particles' floor kept the cells coarser than their rough
+// surface asks for (empty otherwise). On the NeRF T-bar's Poisson 1/6 clouds (16.3 mm interior
+// spacing, so a 9.78 mm floor) the grid keeps the body's 9.85 mm instead of 7.88, and its energy
+// is 2.8-3.8 % stiffer than the FEM's on the same particles, whose own answer is up to 2.4 % from
+// the mesh's (docs/mechanics_matrix_nerf.md, "The FEM on the clouds' own surfaces").
+std::string roughFloorNote(const RoughSurfaceCell& rough, double cell, double floor) {
+  if (!(rough.cell < floor * (1 - 1e-9))) return {};
+  std::ostringstream note;
+  note.precision(3);
+  note << "the surface is rough (its particles scatter " << rough.scatter * 1e3 << " mm about a smooth fit over "
+       << rough.radius * 1e3 << " mm), which asks for " << rough.cell * 1e3 << " mm cells, but the particles' spacing keeps them at "
+       << cell * 1e3 << " mm, so expect a stiff answer (the NeRF T-bar's Poisson clouds at a sixth of its section: "
+       << "2.8-3.8 % stiffer in energy than the FEM on the same particles, and so sparse a cloud on a rough surface fixes its "
+       << "body only to a few percent); particles " << rough.cell / floor << " times as far apart as these, or closer, let "
+          "the grid take the finer cell";
+  return note.str();
+}
+
+// `first` and `second` joined, either possibly empty.
+std::string joinedNotes(const std::string& first, const std::string& second) {
+  if (first.empty() || second.empty()) return first + second;
+  return first + "; " + second;
 }
 
 }  // namespace
@@ -148,8 +178,9 @@ ResolvedDemConfig resolvedDemConfig(DemConfig config, const core::ParticleCloud&
     // 90th-percentile spacing coarsened a Poisson cloud's grid to 3.5 cells across the T-bar's leg
     // (7 % error, against 2.7 % at the body's 4).
     const bool particles = config.grid.quadrature == DemConfig::GridQuadrature::kParticles;
-    config.grid.cell = std::max(std::cbrt(volume / config.grid.body_cells),
-                                (particles ? 1.0 : kFinestCellInSpacings) * spacing);
+    const double floor = (particles ? 1.0 : kFinestCellInSpacings) * spacing;
+    std::string rough_note;
+    config.grid.cell = std::max(std::cbrt(volume / config.grid.body_cells), floor);
     // A slender body needs the 2000 cells (the T-bar's 60 mm section: 6 cells of 10 mm, where 600
     // gave 4 of 15 mm and +1.6 .. +4.2 % in energy); a compact one does not, and there they cost
     // a nearly dense factor (the 0.1 m cube at 7.9 mm: past the 60 s limit). Six cells across the
@@ -172,11 +203,13 @@ ResolvedDemConfig resolvedDemConfig(DemConfig config, const core::ParticleCloud&
       // The nested level keeps the unrefined grid's coarse cell (19.7 mm on the NeRF T-bar, not
       // 15.8): it only starts the fine Newton, which took 4 iterations from either, and at 15.8 mm
       // its 15 iterations cost 5-11 % of the solve's CPU more (docs/dem_feature_grid.md).
-      const double refined = roughSurfaceCell(config, cloud, spacing);
+      const RoughSurfaceCell rough = roughSurfaceCell(config, cloud);
+      const double refined = std::max(rough.cell, floor);
       config.grid.nested_ratio *= config.grid.cell / refined;
       config.grid.cell = refined;
+      rough_note = roughFloorNote(rough, refined, floor);
     }
-    coarse_grid = coarseGridNote(config.grid.cell, (particles ? 1.0 : kFinestCellInSpacings) * spacing, volume, area, spacing);
+    coarse_grid = joinedNotes(coarseGridNote(config.grid.cell, floor, volume, area, spacing), rough_note);
   }
   checkGridAgainstParticles(config, spacing);
   return {config, spacing, coarse_grid};

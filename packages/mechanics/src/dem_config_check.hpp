@@ -18,7 +18,8 @@ struct ResolvedDemConfig {
   DemConfig config;
   double spacing = 0.0;  ///< interiorParticleSpacing() of the cloud (m)
   /// Why the answer will be stiff (empty: no reason known): the particles are too coarse for the
-  /// automatic grid to put kFewestCellsAcross cells across the body's mean thickness.
+  /// automatic grid to put kFewestCellsAcross cells across the body's mean thickness, or for the
+  /// finer cells their rough surface asks for (both joined by "; ").
   std::string coarse_grid;
 };
 

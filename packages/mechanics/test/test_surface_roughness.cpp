@@ -5,6 +5,8 @@
 
 #include <cmath>
 #include <random>
+#include <sstream>
+#include <string>
 
 #include "../src/dem_config_check.hpp"
 #include "../src/surface_roughness.hpp"
@@ -113,6 +115,44 @@ TEST(SurfaceRoughness, ACloudWithMoreParticlesThanBodyCellsIsRefined) {
   EXPECT_NEAR(resolved.grid.cell, finer, 1e-9);
   // Its nested level keeps the unrefined grid's coarse cell: it only starts the fine Newton.
   EXPECT_NEAR(resolved.grid.cell * resolved.grid.nested_ratio, flat * config.grid.nested_ratio, 1e-9);
+}
+
+// A rough cloud whose particles are too far apart for the finer cell (the NeRF T-bar's Poisson 1/6
+// clouds: Voronoi volumes put their 90th-percentile spacing at 16.3 mm, whose 0.6 is above the
+// 7.88 mm the surface asks for) keeps the coarser cell and says so, with the spacing that would let
+// the grid refine; a smooth cloud and a rough one the floor does not bind say nothing.
+TEST(SurfaceRoughness, ARoughSurfaceTheParticlesCannotRefineWarnsOfAStiffAnswer) {
+  DemConfig config;
+  config.grid.thickness_cells = 0;  // the body's rule: 10 mm cells, as above
+  const Eigen::Vector3i cells(22, 11, 11);
+  core::ParticleCloud rough = bumpyBox(cells, 1e-3, 30e-3);
+  const double flat = resolvedDemConfig(config, bumpyBox(cells, 0.0, 30e-3)).config.grid.cell;
+  ASSERT_NEAR(flat, 0.01, 1e-6);
+  EXPECT_EQ(resolvedDemConfig(config, rough).coarse_grid, "");  // refined to 8 mm: nothing to say
+  // Uneven interior volumes of the same total: 15 % of the interior particles carry 5 shares, the
+  // rest 0.25/0.85 of one, so the 90th percentile's spacing is 5^(1/3) x 9.1 = 15.6 mm (floor 9.4 mm).
+  std::size_t interior = 0;
+  for (std::size_t i = 0; i < rough.size(); ++i)
+    if (rough.volumes[i] > 0 && interior++ % 20 < 3) rough.volumes[i] *= 5.0;
+    else if (rough.volumes[i] > 0) rough.volumes[i] *= 0.25 / 0.85;
+  double volume = 0.0;
+  for (double v : rough.volumes) volume += v;
+  const double body = std::cbrt(volume / config.grid.body_cells);  // 0.1 % above `flat`
+  const ResolvedDemConfig kept = resolvedDemConfig(config, rough);
+  const double floor = 0.6 * kept.spacing;
+  ASSERT_GT(floor, config.grid.rough_cell_ratio * body);
+  ASSERT_LT(floor, body);
+  EXPECT_NEAR(kept.config.grid.cell, floor, 1e-9);  // as fine as the particles allow, no finer
+  EXPECT_NE(kept.coarse_grid.find("the surface is rough"), std::string::npos) << kept.coarse_grid;
+  EXPECT_NE(kept.coarse_grid.find("expect a stiff answer"), std::string::npos) << kept.coarse_grid;
+  std::ostringstream closer;
+  closer.precision(3);
+  closer << config.grid.rough_cell_ratio * body / floor << " times as far apart";
+  EXPECT_NE(kept.coarse_grid.find(closer.str()), std::string::npos) << kept.coarse_grid;
+  // The same volumes on the smooth box: no refinement was asked for, so nothing is said.
+  core::ParticleCloud smooth = bumpyBox(cells, 0.0, 30e-3);
+  smooth.volumes = rough.volumes;
+  EXPECT_EQ(resolvedDemConfig(config, smooth).coarse_grid, "");
 }
 
 }  // namespace
