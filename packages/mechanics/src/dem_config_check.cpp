@@ -122,36 +122,50 @@ std::string coarseGridNote(double cell, double floor, double volume, double area
 // one, and the finer cell brings their energy within 1 % (docs/dem_feature_grid.md, "A positive
 // definite first fine step").
 struct RoughSurfaceCell {
-  double cell = 0.0;     ///< the cell the surface asks for (the body's own where it is smooth)
+  double cell = 0.0;     ///< the cell the rules allow (the body's own where the surface is smooth)
+  double asked = 0.0;    ///< the finer cell a rough surface asks for (0: a smooth surface)
   double scatter = 0.0;  ///< surfaceRoughness() at `radius` (m); 0 where it was not measured
   double radius = 0.0;   ///< the radius the scatter was measured over (m)
+  bool too_few = false;  ///< rough, but fewer particles than body_cells: the body's cell is kept
 };
 
 RoughSurfaceCell roughSurfaceCell(const DemConfig& config, const core::ParticleCloud& cloud) {
   const DemGridConfig& g = config.grid;
-  if (!(g.rough_surface > 0) || !(g.rough_cell_ratio < 1)) return {g.cell};
-  if (static_cast<double>(cloud.size()) < g.body_cells) return {g.cell};
-  const double radius = std::max(2 * g.cell, 3 * surfaceParticleSpacing(cloud));
-  const double scatter = surfaceRoughness(cloud, radius);
-  if (!(scatter > g.rough_surface * radius)) return {g.cell, scatter, radius};
-  return {g.cell * g.rough_cell_ratio, scatter, radius};
+  RoughSurfaceCell rough{g.cell};
+  if (!(g.rough_surface > 0) || !(g.rough_cell_ratio < 1)) return rough;
+  rough.radius = std::max(2 * g.cell, 3 * surfaceParticleSpacing(cloud));
+  rough.scatter = surfaceRoughness(cloud, rough.radius);
+  if (!(rough.scatter > g.rough_surface * rough.radius)) return rough;
+  rough.asked = g.cell * g.rough_cell_ratio;
+  rough.too_few = static_cast<double>(cloud.size()) < g.body_cells;
+  if (!rough.too_few) rough.cell = rough.asked;
+  return rough;
 }
 
-// What the user should know when the particles' floor kept the cells coarser than their rough
-// surface asks for (empty otherwise). On the NeRF T-bar's Poisson 1/6 clouds (16.3 mm interior
-// spacing, so a 9.78 mm floor) the grid keeps the body's 9.85 mm instead of 7.88, and its energy
-// is 2.8-3.8 % stiffer than the FEM's on the same particles, whose own answer is up to 2.4 % from
-// the mesh's (docs/mechanics_matrix_nerf.md, "The FEM on the clouds' own surfaces").
-std::string roughFloorNote(const RoughSurfaceCell& rough, double cell, double floor) {
-  if (!(rough.cell < floor * (1 - 1e-9))) return {};
+// What the user should know when the particles kept the cells coarser than their rough surface
+// asks for (empty otherwise): too few of them, or their floor. The NeRF T-bar's Poisson 1/6 clouds
+// (about 1,580 particles, 16.3 mm interior spacing) keep the body's 9.85 mm instead of 7.88, and
+// their energies are 2.8-3.8 % stiffer than the FEM's on the same particles, whose own answers are
+// up to 2.4 % from the mesh's (docs/mechanics_matrix_nerf.md, "The FEM on the clouds' own surfaces").
+std::string roughSurfaceNote(const RoughSurfaceCell& rough, const DemGridConfig& grid, std::size_t particles,
+                             double cell, double floor) {
+  if (!(rough.asked > 0) || !(cell > rough.asked * (1 + 1e-9))) return {};
+  // How much closer the particles must be: enough of them, and a floor at the finer cell.
+  double closer = std::min(1.0, rough.asked / floor);
+  if (rough.too_few) closer = std::min(closer, std::cbrt(static_cast<double>(particles) / grid.body_cells));
   std::ostringstream note;
   note.precision(3);
   note << "the surface is rough (its particles scatter " << rough.scatter * 1e3 << " mm about a smooth fit over "
-       << rough.radius * 1e3 << " mm), which asks for " << rough.cell * 1e3 << " mm cells, but the particles' spacing keeps them at "
-       << cell * 1e3 << " mm, so expect a stiff answer (the NeRF T-bar's Poisson clouds at a sixth of its section: "
-       << "2.8-3.8 % stiffer in energy than the FEM on the same particles, and so sparse a cloud on a rough surface fixes its "
-       << "body only to a few percent); particles " << rough.cell / floor << " times as far apart as these, or closer, let "
-          "the grid take the finer cell";
+       << rough.radius * 1e3 << " mm) and asks for " << rough.asked * 1e3 << " mm cells, but ";
+  if (rough.too_few)
+    note << "its " << particles << " particles are fewer than the " << std::llround(grid.body_cells)
+         << " (grid.body_cells) the finer grid needs";
+  else
+    note << "the particles' spacing allows no finer than " << floor * 1e3 << " mm";
+  note << ", so the grid keeps " << cell * 1e3 << " mm: expect a stiff answer (the NeRF T-bar's Poisson clouds at a sixth "
+       << "of its section: 2.8-3.8 % stiffer in energy than the FEM on the same particles; so sparse a cloud on a rough "
+       << "surface fixes its body only to a few percent); particles " << closer << " times as far apart as these, or "
+       << "closer, let the grid take the finer cell";
   return note.str();
 }
 
@@ -207,7 +221,7 @@ ResolvedDemConfig resolvedDemConfig(DemConfig config, const core::ParticleCloud&
       const double refined = std::max(rough.cell, floor);
       config.grid.nested_ratio *= config.grid.cell / refined;
       config.grid.cell = refined;
-      rough_note = roughFloorNote(rough, refined, floor);
+      rough_note = roughSurfaceNote(rough, config.grid, cloud.size(), refined, floor);
     }
     coarse_grid = joinedNotes(coarseGridNote(config.grid.cell, floor, volume, area, spacing), rough_note);
   }

@@ -117,10 +117,11 @@ TEST(SurfaceRoughness, ACloudWithMoreParticlesThanBodyCellsIsRefined) {
   EXPECT_NEAR(resolved.grid.cell * resolved.grid.nested_ratio, flat * config.grid.nested_ratio, 1e-9);
 }
 
-// A rough cloud whose particles are too far apart for the finer cell (the NeRF T-bar's Poisson 1/6
-// clouds: Voronoi volumes put their 90th-percentile spacing at 16.3 mm, whose 0.6 is above the
-// 7.88 mm the surface asks for) keeps the coarser cell and says so, with the spacing that would let
-// the grid refine; a smooth cloud and a rough one the floor does not bind say nothing.
+// A rough cloud whose particles are too far apart or too few for the finer cell (the NeRF T-bar's
+// Poisson 1/6 clouds: about 1,580 particles, and Voronoi volumes put their 90th-percentile spacing
+// at 16.3 mm, whose 0.6 is above the 7.88 mm the surface asks for) keeps the coarser cell and says
+// so, with the spacing that would let the grid refine; a smooth cloud and a rough one that is
+// refined say nothing.
 TEST(SurfaceRoughness, ARoughSurfaceTheParticlesCannotRefineWarnsOfAStiffAnswer) {
   DemConfig config;
   config.grid.thickness_cells = 0;  // the body's rule: 10 mm cells, as above
@@ -153,6 +154,11 @@ TEST(SurfaceRoughness, ARoughSurfaceTheParticlesCannotRefineWarnsOfAStiffAnswer)
   core::ParticleCloud smooth = bumpyBox(cells, 0.0, 30e-3);
   smooth.volumes = rough.volumes;
   EXPECT_EQ(resolvedDemConfig(config, smooth).coarse_grid, "");
+  // Too few particles (1,176, fewer than body_cells) keep the body's cell and say that instead.
+  const ResolvedDemConfig few = resolvedDemConfig(config, bumpyBox({14, 7, 7}, 1e-3, 30e-3));
+  EXPECT_NEAR(few.config.grid.cell, flat, 1e-9);
+  EXPECT_NE(few.coarse_grid.find("1176 particles are fewer than the 2000"), std::string::npos) << few.coarse_grid;
+  EXPECT_EQ(resolvedDemConfig(config, bumpyBox({14, 7, 7}, 0.0, 30e-3)).coarse_grid, "");
 }
 
 }  // namespace
