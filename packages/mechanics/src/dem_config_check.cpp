@@ -145,8 +145,9 @@ RoughSurfaceCell roughSurfaceCell(const DemConfig& config, const core::ParticleC
 // What the user should know when the particles kept the cells coarser than their rough surface
 // asks for (empty otherwise): too few of them, or their floor. The NeRF T-bar's Poisson 1/6 clouds
 // (about 1,580 particles, 16.3 mm interior spacing) keep the body's 9.85 mm instead of 7.88, and
-// their energies are 2.8-3.8 % stiffer than the FEM's on the same particles, whose own answers are
-// up to 2.4 % from the mesh's (docs/mechanics_matrix_nerf.md, "The FEM on the clouds' own surfaces").
+// over seven NeRF draws their energies were 1.8-3.8 % stiffer than the FEM's on the same particles,
+// whose own answers were up to 2.4 % from the mesh's (docs/mechanics_matrix_nerf.md, "The FEM on
+// the clouds' own surfaces" and "A warning where the particles hold the grid coarse").
 std::string roughSurfaceNote(const RoughSurfaceCell& rough, const DemGridConfig& grid, std::size_t particles,
                              double cell, double floor) {
   if (!(rough.asked > 0) || !(cell > rough.asked * (1 + 1e-9))) return {};
@@ -163,7 +164,7 @@ std::string roughSurfaceNote(const RoughSurfaceCell& rough, const DemGridConfig&
   else
     note << "the particles' spacing allows no finer than " << floor * 1e3 << " mm";
   note << ", so the grid keeps " << cell * 1e3 << " mm: expect a stiff answer (the NeRF T-bar's Poisson clouds at a sixth "
-       << "of its section: 2.8-3.8 % stiffer in energy than the FEM on the same particles; so sparse a cloud on a rough "
+       << "of its section: 1.8-3.8 % stiffer in energy than the FEM on the same particles; so sparse a cloud on a rough "
        << "surface fixes its body only to a few percent); particles " << closer << " times as far apart as these, or "
        << "closer, let the grid take the finer cell";
   return note.str();
