@@ -121,7 +121,8 @@ TEST(DemNodeParametric, ScaledWrenchesAreAnsweredWithoutTraining) {
   EXPECT_NEAR(half->tip_uz / trained->tip_uz, 0.5, 0.1);
   const auto turned = check.apply(-0.002, 0.0);
   ASSERT_TRUE(turned) << "no answer to the turned wrench within 60 s";
-  EXPECT_EQ(turned->how.answered_by, dem_nerf::SolveAnswer::WARM);
+  // Another direction: a new network (the trained field is a worse start than none).
+  EXPECT_EQ(turned->how.answered_by, dem_nerf::SolveAnswer::COLD);
 }
 
 }  // namespace

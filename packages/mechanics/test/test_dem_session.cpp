@@ -41,7 +41,7 @@ TEST(DemSession, LoadScaleIsFoundOnlyForAPureScaling) {
   EXPECT_FALSE(dm::loadScaleBetween(reference, stiffer));
 }
 
-TEST(DemSession, ScaledLoadsAreAnsweredInstantlyOthersWarmStarted) {
+TEST(DemSession, ScaledLoadsAreAnsweredInstantlyOthersTrainedAgain) {
   const dm::DemConfig config = dm::test::parametricMlp(16, 300, 1.5);
   dm::DemSession session(config);
   EXPECT_THROW(session.answer(dm::uniaxialTractionScenario(2e5)), core::Error);  // no particles yet
@@ -62,4 +62,11 @@ TEST(DemSession, ScaledLoadsAreAnsweredInstantlyOthersWarmStarted) {
   const dm::DemSessionAnswer beyond = session.answer(dm::uniaxialTractionScenario(3.2e5));
   EXPECT_EQ(beyond.mode, "warm");
   EXPECT_LT(maxRelativeError(beyond.outcome.field, 3.2e5), 0.05);
+
+  // Reversed (s = -0.5): the trained tension field is no start for a compression; a new network.
+  const dm::DemSessionAnswer reversed = session.answer(dm::uniaxialTractionScenario(-1e5));
+  EXPECT_EQ(reversed.mode, "cold");
+  EXPECT_LT(maxRelativeError(reversed.outcome.field, -1e5), 0.05);
+  // Its own scalings are answered at once again.
+  EXPECT_EQ(session.answer(dm::uniaxialTractionScenario(-5e4)).mode, "instant");
 }

@@ -2,7 +2,9 @@
 // A DEM that lives across load changes, as dem_node needs it: the network trained on one load
 // case answers the next one warm-started, and in parametric mode a load case that only scales
 // the trained one (same regions, forces, torques, body force and prescribed displacements times
-// one factor s inside the trained range) is answered at once, without any training.
+// one factor s inside the trained range) is answered at once, without any training. In
+// parametric mode only a load beyond the range in the trained direction (s > 0) is warm-started;
+// any other is trained on a new network, a better start than the old load's field.
 
 #include <memory>
 #include <optional>
@@ -17,7 +19,8 @@
 namespace demnerf::mechanics {
 
 /// How an answer was obtained: "instant" (parametric prediction, no training), "warm" (trained
-/// from the previous network) or "cold" (a new network).
+/// from the previous network) or "cold" (a new network: the first answer, the one after a failed
+/// solve or new particles, and in parametric mode a load that is no positive scaling of the trained one).
 struct DemSessionAnswer {
   SimulationOutcome outcome;
   std::string mode;
