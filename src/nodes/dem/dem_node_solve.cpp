@@ -114,6 +114,10 @@ demnerf::mechanics::SimulationOutcome DemNode::solveWithSession(const SolveJob& 
     report.how += " (coarse particles: a stiff answer)";
     ROS_WARN_THROTTLE(10.0, "dem_node: %s", answer.outcome.coarse_grid.c_str());
   }
+  if (!answer.warm_failure.empty()) {
+    report.how += " (the warm start failed its check; a new network answered)";
+    ROS_WARN_THROTTLE(10.0, "dem_node: warm start refused, solved again cold: %s", answer.warm_failure.c_str());
+  }
   if (!answer.unverified.empty()) {
     report.how += " (not verified as an equilibrium)";
     ROS_WARN_THROTTLE(10.0, "dem_node: parametric DEM answer not verified: %s", answer.unverified.c_str());

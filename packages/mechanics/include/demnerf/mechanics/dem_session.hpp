@@ -28,6 +28,8 @@ struct DemSessionAnswer {
   /// Parametric mode: why the trained answer failed its equilibrium check (DemReport::unverified);
   /// instant answers scale that training and inherit it.
   std::string unverified;
+  /// Why the warm start failed, when a new network then answered (mode "cold"); empty otherwise.
+  std::string warm_failure;
 };
 
 /// The factor s with `scaled` = s x `reference` in every load, body force and prescribed
@@ -44,12 +46,16 @@ class DemSession {
   void setParticles(core::ParticleCloud cloud);
   bool hasParticles() const { return cloud_.has_value(); }
   /// Solves the scenario on the current particles (core::Error when there are none, for bad
-  /// input, or a failed solve; after a failed solve the next answer starts cold).
+  /// input, or a failed solve; after a failed solve the next answer starts cold). A warm start
+  /// that ends in no equilibrium (SolveFailure kNotConverged or kInverted) is tried once more on
+  /// a new network within the rest of the budget (DemSessionAnswer::warm_failure says so).
   DemSessionAnswer answer(const core::Scenario& scenario);
   /// The same within a time budget, with progress and a cancel flag (mechanics::SolveError then).
   DemSessionAnswer answer(const core::Scenario& scenario, const SolveControl& control);
 
  private:
+  void train(const core::Scenario& scenario, const SolveControl& control, DemSessionAnswer& answer);
+
   DemConfig config_;
   std::optional<core::ParticleCloud> cloud_;
   std::unique_ptr<DemSolver> solver_;
