@@ -122,7 +122,6 @@ std::string coarseGridNote(double cell, double floor, double volume, double area
 // one, and the finer cell brings their energy within 1 % (docs/dem_feature_grid.md, "A positive
 // definite first fine step").
 struct RoughSurfaceCell {
-  double cell = 0.0;     ///< the cell the rules allow (the body's own where the surface is smooth)
   double asked = 0.0;    ///< the finer cell a rough surface asks for (0: a smooth surface)
   double scatter = 0.0;  ///< surfaceRoughness() at `radius` (m); 0 where it was not measured
   double radius = 0.0;   ///< the radius the scatter was measured over (m)
@@ -131,14 +130,13 @@ struct RoughSurfaceCell {
 
 RoughSurfaceCell roughSurfaceCell(const DemConfig& config, const core::ParticleCloud& cloud) {
   const DemGridConfig& g = config.grid;
-  RoughSurfaceCell rough{g.cell};
+  RoughSurfaceCell rough;
   if (!(g.rough_surface > 0) || !(g.rough_cell_ratio < 1)) return rough;
   rough.radius = std::max(2 * g.cell, 3 * surfaceParticleSpacing(cloud));
   rough.scatter = surfaceRoughness(cloud, rough.radius);
   if (!(rough.scatter > g.rough_surface * rough.radius)) return rough;
   rough.asked = g.cell * g.rough_cell_ratio;
   rough.too_few = static_cast<double>(cloud.size()) < g.body_cells;
-  if (!rough.too_few) rough.cell = rough.asked;
   return rough;
 }
 
@@ -219,7 +217,7 @@ ResolvedDemConfig resolvedDemConfig(DemConfig config, const core::ParticleCloud&
       // 15.8): it only starts the fine Newton, which took 4 iterations from either, and at 15.8 mm
       // its 15 iterations cost 5-11 % of the solve's CPU more (docs/dem_feature_grid.md).
       const RoughSurfaceCell rough = roughSurfaceCell(config, cloud);
-      const double refined = std::max(rough.cell, floor);
+      const double refined = rough.asked > 0 && !rough.too_few ? std::max(rough.asked, floor) : config.grid.cell;
       config.grid.nested_ratio *= config.grid.cell / refined;
       config.grid.cell = refined;
       rough_note = roughSurfaceNote(rough, config.grid, cloud.size(), refined, floor);
